@@ -1,0 +1,80 @@
+#version 330 core
+// Differential-rendering composition of one region of interest, in linear light:
+//   R' = a * Irpv + (1 - a) * (R + Irpv - Ir)
+// a is the object's coverage where it is in front of the real scene; the real scene keeps
+// its pixels (colour, labels, instances, disparity) wherever it is in front.
+#if defined VERTEX_SHADER
+void main() {
+    vec2 p = vec2(float((gl_VertexID & 1) << 2), float((gl_VertexID & 2) << 1)) - 1.0;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#elif defined FRAGMENT_SHADER
+#include "common.glsl"
+uniform sampler2D u_photo;         // R, sRGB 8-bit
+uniform sampler2D u_irpv;          // object + plane, linear
+uniform sampler2D u_ir;            // plane alone, linear
+uniform sampler2D u_alpha;         // object coverage
+uniform sampler2D u_odepth;        // coverage-weighted object depth
+uniform sampler2D u_plane;         // (coverage-weighted plane depth, plane coverage)
+uniform usampler2D u_id;           // object index at the pixel centre, 0 = none
+uniform sampler2D u_id_depth;      // object depth at the pixel centre
+uniform sampler2D u_scene_depth;   // real depth, +inf where unknown
+uniform usampler2D u_labels;       // real label ids
+uniform usampler2D u_instances;    // real instance ids
+uniform usampler2D u_disparity;    // real disparity, Cityscapes encoding
+uniform uint u_class[16];          // label id of object k (index 1..15)
+uniform uint u_instance[16];       // new instance id of object k
+uniform uint u_front_labels[8];    // bit set: label always in front (ego vehicle, borders)
+uniform float u_disp_scale;        // baseline * fx * 256
+uniform float u_tol_abs;           // depth tolerance, metres
+uniform float u_tol_rel;           // depth tolerance, fraction of depth
+layout(location = 0) out vec4 out_rgb;
+layout(location = 1) out uint out_label;
+layout(location = 2) out uint out_instance;
+layout(location = 3) out uint out_disparity;
+layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
+
+bool in_front(float obj_depth, float scene_depth, bool label_front) {
+    return !label_front && obj_depth < scene_depth + u_tol_abs + u_tol_rel * obj_depth;
+}
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    vec3 R = srgb_to_linear(texelFetch(u_photo, p, 0).rgb);
+    vec3 irpv = texelFetch(u_irpv, p, 0).rgb;
+    vec3 ir = texelFetch(u_ir, p, 0).rgb;
+    float a = texelFetch(u_alpha, p, 0).r;
+    vec2 plane = texelFetch(u_plane, p, 0).rg;
+    float sd = texelFetch(u_scene_depth, p, 0).r;
+    uint label = texelFetch(u_labels, p, 0).r;
+    bool front = (u_front_labels[label >> 5u] & (1u << (label & 31u))) != 0u;
+
+    bool obj_vis = a > 0.0 && in_front(texelFetch(u_odepth, p, 0).r / max(a, 1e-6), sd, front);
+    bool plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, sd, front);
+    // Irpv and Ir are resolved over 4 samples with a zero background, so at an object's
+    // edge Irpv = a * object + (1 - a) * plane and the formula blends exactly.
+    vec3 diff = irpv - ir;
+    if (!obj_vis) {
+        // hidden (or absent) object: keep R, plus the shadow where the plane itself is seen
+        diff = (a == 0.0 && plane_vis) ? diff : vec3(0.0);
+        a = 0.0;
+    }
+    vec3 rgb = a * irpv + (1.0 - a) * (R + diff);
+    out_rgb = vec4(linear_to_srgb(rgb), 1.0);
+
+    uint id = texelFetch(u_id, p, 0).r;
+    out_label = label;
+    out_instance = texelFetch(u_instances, p, 0).r;
+    out_disparity = texelFetch(u_disparity, p, 0).r;
+    out_visible = 0u;
+    if (id > 0u) {
+        float od = texelFetch(u_id_depth, p, 0).r;
+        if (in_front(od, sd, front)) {
+            out_label = u_class[id];
+            out_instance = u_instance[id];
+            out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
+            out_visible = id;
+        }
+    }
+}
+#endif

@@ -1,0 +1,143 @@
+"""Stage 5 - compose: differential rendering into the photo, and the new ground truth.
+
+Runs ``shaders/compose.glsl`` over the render's region of interest, then pastes that region
+into copies of the full-frame arrays. Outputs per pixel (see the shader for the rule):
+RGB R' = a*Irpv + (1-a)*(R + Irpv - Ir) in linear light; labels, instance ids and
+disparity take the object's values where its pixel centre is in front of the real scene.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import moderngl
+import numpy as np
+
+from .gl import GLContext
+from .render import RenderPasses, Roi
+
+#: labels that are always in front of inserted objects (they belong to our own car or the
+#: image border): ego vehicle, rectification border, out of roi
+FRONT_LABELS = (1, 2, 3)
+#: an object pixel is in front of the real scene when  d_obj < d_scene + TOL_ABS + TOL_REL*d_obj
+TOL_ABS = 0.05  # metres
+TOL_REL = 0.005
+MAX_OBJECTS = 15
+
+
+@dataclass(frozen=True, eq=False)
+class Composed:
+    """Full-frame outputs. rgb (H, W, 3) uint8; label_ids (H, W) uint8; instance_ids (H, W)
+    int32; disparity (H, W) uint16."""
+
+    rgb: np.ndarray
+    label_ids: np.ndarray
+    instance_ids: np.ndarray
+    disparity: np.ndarray
+    visible: np.ndarray  # (H, W) uint8: index k (1..K) of the object seen at the pixel, else 0
+
+
+@dataclass(frozen=True, eq=False)
+class SceneLayers:
+    """The real frame as the compose pass sees it (full-frame arrays)."""
+
+    rgb: np.ndarray  # (H, W, 3) uint8 sRGB
+    label_ids: np.ndarray  # (H, W) uint8
+    instance_ids: np.ndarray  # (H, W) int32
+    disparity: np.ndarray  # (H, W) uint16
+    depth: np.ndarray  # (H, W) float32 metres, inf where unknown
+    disparity_scale: float  # baseline * fx * 256
+
+
+class Composer:
+    """Runs the compose shader with the shared :class:`GLContext`."""
+
+    def __init__(self, gl: GLContext) -> None:
+        self.gl = gl
+        self.prog = gl.program("compose")
+        self.vao = gl.own(gl.ctx.vertex_array(self.prog, []))
+        mask = np.zeros(8, np.uint32)
+        for label in FRONT_LABELS:
+            mask[label >> 5] |= np.uint32(1 << (label & 31))
+        self.prog["u_front_labels"].write(mask.tobytes())
+        self.prog["u_tol_abs"].value = TOL_ABS
+        self.prog["u_tol_rel"].value = TOL_REL
+
+    def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
+                    instances: Sequence[int]) -> dict[str, np.ndarray]:
+        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity."""
+        if len(classes) > MAX_OBJECTS:
+            raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
+        gl, ctx = self.gl, self.gl.ctx
+        roi = passes.roi
+        rows, cols = roi.slices
+        size = (roi.width, roi.height)
+        inputs = {
+            "u_photo": gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1"),
+            "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
+            "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
+            "u_instances": gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4"),
+            "u_disparity": gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4"),
+        }
+        for name in ("irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth"):
+            inputs[f"u_{name}"] = passes.textures[name]
+        for unit, (name, tex) in enumerate(inputs.items()):
+            tex.use(unit)
+            self.prog[name].value = unit
+        cls = np.zeros(16, np.uint32)
+        cls[1:len(classes) + 1] = classes
+        inst = np.zeros(16, np.uint32)
+        inst[1:len(instances) + 1] = instances
+        self.prog["u_class"].write(cls.tobytes())
+        self.prog["u_instance"].write(inst.tobytes())
+        self.prog["u_disp_scale"].value = scene.disparity_scale
+
+        outs = [gl.texture(size, 4, dtype="f1"), gl.texture(size, 1, dtype="u4"),
+                gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4")]
+        fbo = gl.own(ctx.framebuffer(outs))
+        fbo.use()
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        h, w = roi.height, roi.width
+        rgb = np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]
+        label = np.frombuffer(outs[1].read(), np.uint32).reshape(h, w)
+        instance = np.frombuffer(outs[2].read(), np.uint32).reshape(h, w)
+        disparity = np.frombuffer(outs[3].read(), np.uint32).reshape(h, w)
+        visible = np.frombuffer(outs[4].read(), np.uint32).reshape(h, w)
+        gl.free(fbo)
+        for tex in outs + [inputs[k] for k in ("u_photo", "u_scene_depth", "u_labels", "u_instances",
+                                                 "u_disparity")]:
+            gl.free(tex)
+        return {"rgb": rgb, "label_ids": label.astype(np.uint8), "instance_ids": instance.astype(np.int32),
+                "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
+
+    def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
+                instances: Sequence[int]) -> Composed:
+        """Full-frame result: the scene's arrays with the ROI replaced by the composition."""
+        out = Composed(scene.rgb.copy(), scene.label_ids.copy(), scene.instance_ids.copy(), scene.disparity.copy(),
+                       np.zeros(scene.label_ids.shape, np.uint8))
+        if passes is None:
+            return out
+        roi_out = self.compose_roi(passes, scene, classes, instances)
+        rows, cols = passes.roi.slices
+        for name, arr in roi_out.items():
+            getattr(out, name)[rows, cols] = arr
+        return out
+
+
+def reference_compose(R: np.ndarray, irpv: np.ndarray, ir: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """NumPy reference of the shader's RGB rule with nothing real in front (for tests).
+
+    R (H, W, 3) uint8 sRGB; irpv, ir (H, W, 3) float linear; alpha (H, W) -> (H, W, 3) uint8.
+    """
+    def to_lin(c):
+        c = np.clip(c, 0, 1)
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+    def to_srgb(c):
+        c = np.clip(c, 0, 1)
+        return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
+
+    a = alpha[..., None]
+    lin = a * irpv + (1 - a) * (to_lin(R / 255.0) + irpv - ir)
+    return np.rint(to_srgb(lin) * 255).astype(np.uint8)

@@ -1,0 +1,139 @@
+"""Stage 1 - read: find Cityscapes image sets under a root and read them, checked.
+
+Layout (cityscapesScripts ``csHelpers``: file names are ``city_seq_frame_type.ext``)::
+
+    leftImg8bit/<split>/<city>/<city>_<seq>_<frame>_leftImg8bit.png     8-bit RGB
+    gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_labelIds.png      8-bit label ids
+    gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_instanceIds.png   16-bit instance ids
+    gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_color.png         RGBA colours
+    disparity/<split>/<city>/<city>_<seq>_<frame>_disparity.png         16-bit, d = (p-1)/256
+    camera/<split>/<city>/<city>_<seq>_<frame>_camera.json              calibration
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .camera import Camera
+from .errors import InputError
+from .fileio import read_png
+
+_NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
+
+
+@dataclass(frozen=True, order=True)
+class ImageSetId:
+    """Names one image set: ``split/city/city_seq_frame``."""
+
+    split: str
+    city: str
+    seq: str
+    frame: str
+
+    @property
+    def name(self) -> str:
+        """``city_seq_frame``, the prefix of every file of the set."""
+        return f"{self.city}_{self.seq}_{self.frame}"
+
+    @property
+    def key(self) -> str:
+        return f"{self.split}/{self.city}/{self.name}"
+
+    def path(self, root: Path, kind: str) -> Path:
+        """Path of one file of the set under a Cityscapes root; ``kind`` is a file type."""
+        folder, suffix = _KINDS[kind]
+        return Path(root) / folder / self.split / self.city / f"{self.name}_{suffix}"
+
+
+#: file type -> (top folder, file-name suffix)
+_KINDS = {
+    "rgb": ("leftImg8bit", "leftImg8bit.png"),
+    "labelIds": ("gtFine", "gtFine_labelIds.png"),
+    "instanceIds": ("gtFine", "gtFine_instanceIds.png"),
+    "color": ("gtFine", "gtFine_color.png"),
+    "polygons": ("gtFine", "gtFine_polygons.json"),
+    "disparity": ("disparity", "disparity.png"),
+    "camera": ("camera", "camera.json"),
+    "record": ("synthcompose", "synthcompose.json"),
+}
+
+
+def parse_name(split: str, filename: str) -> ImageSetId | None:
+    m = _NAME.match(filename)
+    if not m:
+        return None
+    return ImageSetId(split, m["city"], m["seq"], m["frame"])
+
+
+def find_image_sets(root: Path, splits=None, cities=None, frames=None) -> list[ImageSetId]:
+    """Every image set under ``root/leftImg8bit/<split>/<city>/``, sorted.
+
+    ``splits`` defaults to every split folder present; ``cities`` and ``frames``
+    (``city_seq_frame`` names) narrow the selection when given.
+    """
+    root = Path(root)
+    if not (root / "leftImg8bit").is_dir():
+        raise InputError(root / "leftImg8bit", "dataset root has no leftImg8bit folder")
+    if splits is None:
+        splits = sorted(p.name for p in (root / "leftImg8bit").iterdir() if p.is_dir())
+    found: list[ImageSetId] = []
+    for split in splits:
+        split_dir = root / "leftImg8bit" / split
+        if not split_dir.is_dir():
+            raise InputError(split_dir, f"split folder is missing (split {split!r})")
+        for city_dir in sorted(p for p in split_dir.iterdir() if p.is_dir()):
+            if cities is not None and city_dir.name not in cities:
+                continue
+            for file in sorted(city_dir.glob("*_leftImg8bit.png")):
+                ident = parse_name(split, file.name)
+                if ident is None or ident.city != city_dir.name:
+                    continue
+                if frames is not None and ident.name not in frames:
+                    continue
+                found.append(ident)
+    return sorted(found)
+
+
+@dataclass(frozen=True, eq=False)
+class ImageSet:
+    """One frame's data, checked for shape and type.
+
+    rgb          : (H, W, 3) uint8, sRGB
+    label_ids    : (H, W) uint8, Cityscapes label ids
+    instance_ids : (H, W) int32, id*1000+k for instance classes, plain label id elsewhere
+    disparity    : (H, W) uint16, Cityscapes encoding (p=0 invalid, d=(p-1)/256 px)
+    camera       : the frame's own calibration
+    """
+
+    ident: ImageSetId
+    rgb: np.ndarray
+    label_ids: np.ndarray
+    instance_ids: np.ndarray
+    disparity: np.ndarray
+    camera: Camera
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+        return self.rgb.shape[1], self.rgb.shape[0]
+
+
+def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
+    """Read and check all files of one image set; raises :class:`InputError` naming the file."""
+    rgb_path = ident.path(root, "rgb")
+    rgb = read_png(rgb_path, "rgb8")
+    h, w = rgb.shape[:2]
+    label_path = ident.path(root, "labelIds")
+    labels = read_png(label_path, "gray8")
+    inst_path = ident.path(root, "instanceIds")
+    instances = read_png(inst_path, "gray16")
+    disp_path = ident.path(root, "disparity")
+    disparity = read_png(disp_path, "gray16")
+    for path, img in ((label_path, labels), (inst_path, instances), (disp_path, disparity)):
+        if img.shape[:2] != (h, w):
+            raise InputError(path, f"image is {img.shape[1]}x{img.shape[0]} but {rgb_path.name} is {w}x{h}")
+    camera = Camera.read(ident.path(root, "camera"), w, h)
+    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera)

@@ -1,0 +1,111 @@
+"""Every encoder and decoder of the project, in one place.
+
+Readers check what they read and raise :class:`InputError` naming the file; writers are
+atomic: they write a temporary file beside the target and rename it, so a final name only
+ever holds a complete file.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+
+from .errors import InputError
+
+#: zlib level for every PNG we write (OpenCV's scale, 0-9). Low: PNG encoding dominates a batch.
+PNG_COMPRESSION = 1
+
+PngKind = Literal["rgb8", "gray8", "gray16"]
+
+
+def read_png(path: str | Path, kind: PngKind) -> np.ndarray:
+    """Read a PNG and check its layout.
+
+    Returns ``(H, W, 3) uint8`` RGB for ``rgb8``, ``(H, W) uint8`` for ``gray8`` and
+    ``(H, W) uint16`` for ``gray16``.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(path, "file is missing") from None
+    except OSError as exc:
+        raise InputError(path, f"cannot be read ({exc.strerror})") from None
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        raise InputError(path, "is not a PNG file")
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise InputError(path, "PNG data is corrupt or truncated")
+    if kind == "rgb8":
+        if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
+            raise InputError(path, f"expected an 8-bit RGB image, found {_describe(img)}")
+        return np.ascontiguousarray(img[..., 2::-1])
+    want = np.uint8 if kind == "gray8" else np.uint16
+    if img.ndim != 2 or img.dtype != want:
+        bits = 8 if kind == "gray8" else 16
+        raise InputError(path, f"expected a {bits}-bit single-channel image, found {_describe(img)}")
+    return img
+
+
+def _describe(img: np.ndarray) -> str:
+    channels = 1 if img.ndim == 2 else img.shape[2]
+    return f"{img.dtype.itemsize * 8}-bit, {channels} channel(s), {img.shape[1]}x{img.shape[0]}"
+
+
+def encode_png(img: np.ndarray) -> bytes:
+    """Encode ``(H, W)`` uint8/uint16, ``(H, W, 3)`` RGB or ``(H, W, 4)`` RGBA uint8 as PNG."""
+    if img.ndim == 3:
+        order = [2, 1, 0] if img.shape[2] == 3 else [2, 1, 0, 3]
+        img = img[..., order]
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(img), [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION])
+    if not ok:  # pragma: no cover - OpenCV only fails on unsupported dtypes
+        raise ValueError(f"cannot encode array of {img.dtype} {img.shape} as PNG")
+    return buf.tobytes()
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that ``path`` never holds a partial file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def write_png(path: str | Path, img: np.ndarray) -> None:
+    write_bytes_atomic(path, encode_png(img))
+
+
+def read_json(path: str | Path) -> Any:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(path, "file is missing") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot be read ({exc})") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(path, f"is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+
+
+def dumps_json(obj: Any) -> bytes:
+    return (json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n").encode("utf-8")
+
+
+def write_json(path: str | Path, obj: Any) -> None:
+    write_bytes_atomic(path, dumps_json(obj))

@@ -1,0 +1,161 @@
+"""The batch manifest: JSON, validated against a JSON Schema, resolved into typed values.
+
+Relative paths are relative to the manifest file's folder.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+
+from .errors import ManifestError
+from .fileio import read_json
+from .labels import label_id
+from .models import BUILTIN_PREFIX
+from .placement import PlacementRules
+from .render import Lighting
+
+_AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
+_POS = {"type": "number", "exclusiveMinimum": 0}
+
+SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["dataset", "output", "objects"],
+    "properties": {
+        "dataset": {"type": "string", "minLength": 1, "description": "Cityscapes root"},
+        "output": {"type": "string", "minLength": 1, "description": "output root (Cityscapes layout)"},
+        "splits": {"type": "array", "items": {"type": "string", "minLength": 1}, "minItems": 1, "uniqueItems": True},
+        "cities": {"type": "array", "items": {"type": "string", "minLength": 1}, "uniqueItems": True},
+        "frames": {"type": "array", "items": {"type": "string", "pattern": r"^[A-Za-z0-9-]+_\d+_\d+$"},
+                   "uniqueItems": True},
+        "limit": {"type": "integer", "minimum": 1},
+        "seed": {"type": "integer", "minimum": 0},
+        "objects_per_image": {"type": "integer", "minimum": 1, "maximum": 15},
+        "objects": {
+            "type": "array", "minItems": 1,
+            "items": {
+                "type": "object", "additionalProperties": False,
+                "required": ["model", "class", "size"],
+                "properties": {
+                    "name": {"type": "string", "minLength": 1},
+                    "model": {"type": "string", "minLength": 1},
+                    "class": {"type": "string", "minLength": 1},
+                    "size": {"type": "object", "minProperties": 1, "maxProperties": 1, "additionalProperties": False,
+                             "properties": {"length": _POS, "width": _POS, "height": _POS}},
+                    "up": _AXIS,
+                    "forward": _AXIS,
+                    "weight": _POS,
+                    "allowed_surfaces": {"type": "array", "items": {"type": "string"}, "minItems": 1},
+                    "orientation": {"enum": ["along-road", "face-camera", "random"]},
+                },
+            },
+        },
+        "placement": {
+            "type": "object", "additionalProperties": False,
+            "properties": {
+                "distance": {"type": "array", "items": {"type": "number", "minimum": 0}, "minItems": 2, "maxItems": 2},
+                "max_attempts": {"type": "integer", "minimum": 1},
+                "yaw_jitter_deg": {"type": "number", "minimum": 0},
+                "min_footprint_allowed": {"type": "number", "minimum": 0, "maximum": 1},
+                "clearance": {"type": "number", "minimum": 0},
+            },
+        },
+        "lighting": {
+            "type": "object", "additionalProperties": False,
+            "properties": {
+                "sun_elevation_deg": {"type": "number", "minimum": 1, "maximum": 90},
+                "sun_azimuth_deg": {"type": "number"},
+                "sun_fraction": {"type": "number", "minimum": 0, "maximum": 1},
+            },
+        },
+    },
+}
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    name: str
+    model: str  # absolute path or "builtin:<name>"
+    class_name: str
+    size: tuple[tuple[str, float], ...]  # one (dimension, metres) pair
+    up: str
+    forward: str
+    weight: float
+    allowed_surfaces: tuple[str, ...] | None
+    orientation: str | None
+
+
+@dataclass(frozen=True)
+class Manifest:
+    path: Path
+    dataset: Path
+    output: Path
+    splits: tuple[str, ...] | None  # None: every split folder found
+    cities: tuple[str, ...] | None
+    frames: tuple[str, ...] | None
+    limit: int | None
+    seed: int
+    objects_per_image: int
+    objects: tuple[ObjectSpec, ...]
+    rules: PlacementRules
+    lighting: Lighting
+    raw: dict  # the manifest as given, recorded with the outputs
+
+
+def _where(err: jsonschema.ValidationError) -> str:
+    return "/".join(str(p) for p in err.absolute_path) or "(top level)"
+
+
+def parse_manifest(data: Any, path: Path) -> Manifest:
+    """Validate ``data`` (parsed JSON) and resolve it; raises :class:`ManifestError` naming the field."""
+    path = Path(path)
+    validator = jsonschema.Draft202012Validator(SCHEMA)
+    errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
+    if errors:
+        msgs = "; ".join(f"field '{_where(e)}': {e.message}" for e in errors[:5])
+        raise ManifestError(path, msgs)
+    base = path.parent
+    objects = []
+    for i, o in enumerate(data["objects"]):
+        try:
+            label_id(o["class"])
+        except KeyError as exc:
+            raise ManifestError(path, f"field 'objects/{i}/class': {exc.args[0]}") from None
+        for surface in o.get("allowed_surfaces", []):
+            try:
+                label_id(surface)
+            except KeyError as exc:
+                raise ManifestError(path, f"field 'objects/{i}/allowed_surfaces': {exc.args[0]}") from None
+        model = o["model"] if o["model"].startswith(BUILTIN_PREFIX) else str((base / o["model"]).resolve())
+        objects.append(ObjectSpec(
+            name=o.get("name", Path(o["model"]).stem), model=model, class_name=o["class"],
+            size=tuple((k, float(v)) for k, v in o["size"].items()),
+            up=o.get("up", "+y" if not o["model"].startswith(BUILTIN_PREFIX) else "+z"),
+            forward=o.get("forward", "+x"), weight=float(o.get("weight", 1.0)),
+            allowed_surfaces=tuple(o["allowed_surfaces"]) if "allowed_surfaces" in o else None,
+            orientation=o.get("orientation")))
+    p = data.get("placement", {})
+    dist = tuple(p.get("distance", PlacementRules.distance))
+    if dist[0] >= dist[1]:
+        raise ManifestError(path, f"field 'placement/distance': minimum {dist[0]} must be below maximum {dist[1]}")
+    rules = PlacementRules(distance=dist, **{k: v for k, v in p.items() if k != "distance"})
+    lt = data.get("lighting", {})
+    lighting = Lighting.daylight(lt.get("sun_elevation_deg", 50.0), lt.get("sun_azimuth_deg", 135.0),
+                                 lt.get("sun_fraction", 0.35))
+    return Manifest(
+        path=path, dataset=(base / data["dataset"]).resolve(), output=(base / data["output"]).resolve(),
+        splits=tuple(data["splits"]) if "splits" in data else None,
+        cities=tuple(data["cities"]) if "cities" in data else None,
+        frames=tuple(data["frames"]) if "frames" in data else None,
+        limit=data.get("limit"), seed=int(data.get("seed", 0)),
+        objects_per_image=int(data.get("objects_per_image", 1)), objects=tuple(objects),
+        rules=rules, lighting=lighting, raw=data)
+
+
+def load_manifest(path: str | Path) -> Manifest:
+    path = Path(path)
+    return parse_manifest(read_json(path), path)

@@ -1,0 +1,304 @@
+"""The batch: dataset -> geometry -> placement -> render -> compose -> write, per image set.
+
+One :class:`Pipeline` holds the GL context, renderer and composer and processes image sets
+one after the other. A bad image set is reported and skipped; the batch goes on.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import sys
+import time
+import zlib
+from collections import Counter
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from . import __version__
+from .compose import Composer, SceneLayers
+from .dataset import ImageSet, ImageSetId, find_image_sets, read_image_set
+from .errors import InputError, SynthComposeError
+from .geometry import disparity_to_depth, point_cloud
+from .gl import GLContext
+from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
+from .manifest import Manifest, ObjectSpec
+from .models import load_model
+from .placement import Placement, place_object
+from .render import RenderObject, Renderer
+from .writer import write_outputs, write_record
+
+log = logging.getLogger("synthcompose")
+
+STAGES = ("read", "geometry", "placement", "render", "compose", "write")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What happened to one image set: ``done``, ``skipped`` (no valid placement) or ``failed``."""
+
+    key: str
+    status: str
+    reason: str | None = None
+    objects: int = 0
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def image_set_rng(seed: int, ident: ImageSetId) -> np.random.Generator:
+    """Randomness of one image set: a function of (seed, image-set id) only, never of order."""
+    return np.random.default_rng([seed, zlib.crc32(ident.key.encode())])
+
+
+def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) -> int:
+    """class_id * 1000 + k with k above every instance of that class in the frame (and in
+    ``taken``); classes without instances keep their plain id (cityscapesScripts rule)."""
+    if not HAS_INSTANCES[class_id]:
+        return class_id
+    ids = np.unique(instance_ids[instance_ids >= INSTANCE_FACTOR])
+    existing = [int(i) % INSTANCE_FACTOR for i in ids if int(i) // INSTANCE_FACTOR == class_id]
+    existing += [i % INSTANCE_FACTOR for i in taken if i // INSTANCE_FACTOR == class_id]
+    k = max(existing, default=-1) + 1
+    if k >= INSTANCE_FACTOR:
+        raise SynthComposeError(f"no free instance id left for class {class_id}")
+    return class_id * INSTANCE_FACTOR + k
+
+
+def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def ground_albedo(image_set: ImageSet, depth: np.ndarray, placement: Placement, allowed: list[int]) -> tuple:
+    """Mean linear colour of the real ground seen under and around the object's footprint."""
+    cam = image_set.camera
+    l, w, _ = placement.extents
+    gx, gy = np.meshgrid(np.linspace(-1.0, 1.0, 15), np.linspace(-1.0, 1.0, 9))
+    local = np.column_stack([gx.ravel() * l, gy.ravel() * w, np.zeros(gx.size)])
+    m = cam.optical_from_vehicle @ placement.matrix
+    pts = local @ m[:3, :3].T + m[:3, 3]
+    uv = np.rint(cam.project(pts)).astype(int)
+    H, W = depth.shape
+    ok = (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
+    u, v, z = uv[ok, 0], uv[ok, 1], pts[ok, 2]
+    ok2 = np.isin(image_set.label_ids[v, u], allowed) & (depth[v, u] >= z * 0.97 - 0.1)
+    if ok2.sum() == 0:
+        return (0.15, 0.15, 0.15)
+    rgb = _srgb_to_linear(image_set.rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
+    return tuple(float(c) for c in np.median(rgb, axis=0))
+
+
+@contextmanager
+def _timed(timings: dict[str, float], stage: str) -> Iterator[None]:
+    t0 = time.perf_counter()
+    try:
+        yield
+    finally:
+        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+
+
+def _matrix(m: np.ndarray) -> list[list[float]]:
+    return [[round(float(v), 6) for v in row] for row in m]
+
+
+class Pipeline:
+    """Processes image sets of one manifest with one GL context."""
+
+    def __init__(self, manifest: Manifest, gl_backend: str | None = None) -> None:
+        self.manifest = manifest
+        self.gl = GLContext(gl_backend)
+        self.renderer = Renderer(self.gl)
+        self.composer = Composer(self.gl)
+        self._weights = np.array([o.weight for o in manifest.objects], float)
+        self._weights /= self._weights.sum()
+
+    def close(self) -> None:
+        self.gl.release()
+
+    def __enter__(self) -> "Pipeline":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def image_sets(self) -> list[ImageSetId]:
+        m = self.manifest
+        ids = find_image_sets(m.dataset, m.splits, m.cities, m.frames)
+        return ids[: m.limit] if m.limit else ids
+
+    def process(self, ident: ImageSetId) -> Outcome:
+        """Run every stage for one image set; never raises for bad input (returns ``failed``)."""
+        timings: dict[str, float] = {}
+        try:
+            return self._process(ident, timings)
+        except SynthComposeError as exc:
+            return Outcome(ident.key, "failed", str(exc), timings=timings)
+        except Exception as exc:  # a bug must not take the rest of the batch down
+            log.debug("internal error on %s", ident.key, exc_info=True)
+            return Outcome(ident.key, "failed", f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+
+    def _process(self, ident: ImageSetId, timings: dict[str, float]) -> Outcome:
+        m = self.manifest
+        with _timed(timings, "read"):
+            image_set = read_image_set(m.dataset, ident)
+            camera_json = ident.path(m.dataset, "camera").read_bytes()
+        with _timed(timings, "geometry"):
+            cam = image_set.camera
+            depth = disparity_to_depth(image_set.disparity, cam)
+            cloud = point_cloud(depth, image_set.label_ids, cam)
+        rng = image_set_rng(m.seed, ident)
+        placed: list[tuple[ObjectSpec, Placement, int]] = []
+        records, failures = [], []
+        taken: set[int] = set()
+        with _timed(timings, "placement"):
+            for _ in range(m.objects_per_image):
+                spec = m.objects[int(rng.choice(len(m.objects), p=self._weights))]
+                model = load_model(spec.model, spec.size, spec.up, spec.forward)
+                result = place_object(spec.class_name, model.extents, cloud, depth, image_set.label_ids, cam, rng,
+                                      m.rules, spec.allowed_surfaces, spec.orientation,
+                                      tuple(p for _, p, _ in placed))
+                if result.placement is None:
+                    failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
+                                     "attempts": result.attempts, "rejections": result.rejections})
+                    continue
+                cid = label_id(spec.class_name)
+                inst = new_instance_id(image_set.instance_ids, cid, taken)
+                taken.add(inst)
+                placed.append((spec, result.placement, inst))
+                records.append({"result": result, "spec": spec, "instance_id": inst, "model": model})
+        record = {
+            "synthcompose_version": __version__,
+            "image_set": ident.key,
+            "seed": m.seed,
+            "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
+                                                                   "camera")},
+            "lighting": m.lighting.to_dict(),
+            "objects": [],
+            "not_placed": failures,
+        }
+        if not placed:
+            record["status"] = "no valid placement"
+            with _timed(timings, "write"):
+                write_record(m.output, ident, record)
+            reasons = Counter()
+            for f in failures:
+                reasons.update(f["rejections"])
+            why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
+            return Outcome(ident.key, "skipped", f"no valid placement ({why})", timings=timings)
+
+        with _timed(timings, "render"):
+            objects = []
+            for rec in records:
+                spec, pl = rec["spec"], rec["result"].placement
+                allowed = [label_id(s) for s in (spec.allowed_surfaces or ("road", "sidewalk"))]
+                albedo = ground_albedo(image_set, depth, pl, allowed)
+                radius = max(pl.extents[0], pl.extents[1]) * 0.5 + 0.5 * pl.extents[2] + 0.5
+                objects.append(RenderObject(rec["model"], pl.matrix, albedo, radius))
+                rec["plane_albedo"] = albedo
+            passes = self.renderer.render(cam, objects, m.lighting)
+        with _timed(timings, "compose"):
+            scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
+                                depth, cam.baseline * cam.fx * 256.0)
+            classes = [label_id(spec.class_name) for spec, _, _ in placed]
+            composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed])
+            if passes is not None:
+                self.renderer.release(passes)
+        with _timed(timings, "write"):
+            write_outputs(m.output, ident, composed, camera_json)
+            opt_from_v = cam.optical_from_vehicle
+            for k, rec in enumerate(records, start=1):
+                pl, spec = rec["result"].placement, rec["spec"]
+                mask = composed.visible == k
+                ys, xs = np.nonzero(mask)
+                bbox = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1] if len(xs) else None
+                record["objects"].append({
+                    "index": k, "name": spec.name, "model": spec.model, "class": spec.class_name,
+                    "label_id": label_id(spec.class_name), "instance_id": rec["instance_id"],
+                    "extents_m": list(pl.extents),
+                    "pose": {
+                        "vehicle": {"matrix": _matrix(pl.matrix), "position_m": [round(float(v), 4) for v in pl.position],
+                                    "yaw_deg": round(math.degrees(pl.yaw), 3)},
+                        "camera_optical": {"matrix": _matrix(opt_from_v @ pl.matrix),
+                                           "position_m": [round(float(v), 4) for v in
+                                                          (opt_from_v @ np.append(pl.position, 1.0))[:3]]},
+                    },
+                    "ground": {"normal": [round(v, 5) for v in pl.ground_normal], "rms_m": round(pl.ground_rms, 4),
+                               "albedo_linear": [round(v, 4) for v in rec["plane_albedo"]]},
+                    "distance_m": round(pl.distance, 3),
+                    "pixel": list(pl.pixel),
+                    "bbox_2d": bbox,
+                    "visible_pixels": int(mask.sum()),
+                    "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
+                })
+            record["status"] = "done"
+            record["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
+            write_record(m.output, ident, record)
+        return Outcome(ident.key, "done", None, len(placed), timings)
+
+
+@dataclass
+class Summary:
+    outcomes: list[Outcome] = field(default_factory=list)
+    wall_s: float = 0.0
+
+    def count(self, status: str) -> int:
+        return sum(o.status == status for o in self.outcomes)
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.count("failed") else 0
+
+    def stage_means(self) -> dict[str, float]:
+        done = [o for o in self.outcomes if o.status == "done"]
+        return {s: (sum(o.timings.get(s, 0.0) for o in done) / len(done) if done else 0.0) for s in STAGES}
+
+    def to_dict(self) -> dict:
+        return {
+            "done": self.count("done"), "skipped": self.count("skipped"), "failed": self.count("failed"),
+            "wall_s": round(self.wall_s, 3),
+            "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
+            "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
+                         for o in self.outcomes if o.status != "done"],
+        }
+
+    def text(self) -> str:
+        lines = [f"{self.count('done')} done, {self.count('skipped')} skipped, {self.count('failed')} failed "
+                 f"in {self.wall_s:.1f} s"]
+        means = self.stage_means()
+        if self.count("done"):
+            lines.append("mean per image set: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in means.items()))
+        for o in self.outcomes:
+            if o.status != "done":
+                lines.append(f"  {o.status}: {o.key}: {o.reason}")
+        return "\n".join(lines)
+
+
+def run_batch(manifest: Manifest, progress: bool | None = None, gl_backend: str | None = None) -> Summary:
+    """Process every image set the manifest selects; writes ``summary.json`` in the output root."""
+    from tqdm import tqdm
+
+    from .fileio import write_json
+
+    t0 = time.perf_counter()
+    summary = Summary()
+    with Pipeline(manifest, gl_backend) as pipe:
+        ids = pipe.image_sets()
+        log.info("%d image sets from %s -> %s (GL: %s)", len(ids), manifest.dataset, manifest.output,
+                 pipe.gl.renderer_name)
+        show_bar = sys.stderr.isatty() if progress is None else progress
+        bar = tqdm(ids, unit="set", disable=not show_bar, dynamic_ncols=True)
+        for i, ident in enumerate(bar, start=1):
+            outcome = pipe.process(ident)
+            summary.outcomes.append(outcome)
+            if outcome.status != "done":
+                log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
+            if not show_bar:
+                log.info("[%d/%d] %s %s (%.2f s)", i, len(ids), outcome.status, outcome.key,
+                         sum(outcome.timings.values()))
+            else:
+                bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
+    summary.wall_s = time.perf_counter() - t0
+    write_json(manifest.output / "summary.json", summary.to_dict())
+    return summary

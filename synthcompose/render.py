@@ -1,0 +1,333 @@
+"""Stage 4 - render: the passes differential rendering needs, for a region of interest.
+
+For the objects placed in one frame, :class:`Renderer` draws (all in linear light, in the
+frame's own camera, only inside the screen rectangle the objects and their planes cover):
+
+* ``irpv``  : objects + their local ground planes, lit, with shadows (4x MSAA, resolved)
+* ``ir``    : the planes alone, lit, no shadows
+* ``alpha`` : object coverage in [0, 1] (antialiased)
+* ``odepth``: coverage-weighted object depth (divide by alpha for the mean depth)
+* ``plane`` : (coverage-weighted plane depth, plane coverage)
+* ``id``    : uint object index 1..K at each pixel centre (0 = none), and ``id_depth``
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import moderngl
+import numpy as np
+
+from .camera import Camera
+from .gl import GLContext
+from .models import Model
+
+NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
+SAMPLES = 4
+
+
+@dataclass(frozen=True)
+class Roi:
+    """Screen rectangle in pixels: columns x0..x0+width-1, rows y0..y0+height-1."""
+
+    x0: int
+    y0: int
+    width: int
+    height: int
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """(rows, columns) slices of a full-frame array."""
+        return slice(self.y0, self.y0 + self.height), slice(self.x0, self.x0 + self.width)
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Light in the frame's vehicle coordinates, linear RGB, scaled so that an up-facing,
+    unshadowed surface receives ``sky_rgb + sun_rgb * sun_direction.z`` (1.0 by default)."""
+
+    sun_direction: tuple[float, float, float]
+    sun_rgb: tuple[float, float, float]
+    sky_rgb: tuple[float, float, float]
+    ground_rgb: tuple[float, float, float]
+
+    @classmethod
+    def daylight(cls, elevation_deg: float = 50.0, azimuth_deg: float = 135.0,
+                 sun_fraction: float = 0.35) -> "Lighting":
+        """Overcast-leaning daylight; ``sun_fraction`` of up-facing light comes from the sun."""
+        el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+        d = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
+        sun = sun_fraction / max(d[2], 0.05)
+        sky = 1.0 - sun_fraction
+        return cls(d, (sun,) * 3, (sky,) * 3, (0.25 * sky,) * 3)
+
+    def to_dict(self) -> dict:
+        return {k: list(getattr(self, k)) for k in ("sun_direction", "sun_rgb", "sky_rgb", "ground_rgb")}
+
+
+@dataclass(frozen=True, eq=False)
+class RenderObject:
+    """One object to draw: its model, pose and the local ground plane under it."""
+
+    model: Model
+    vehicle_from_object: np.ndarray  # (4, 4)
+    plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
+    plane_radius: float  # half side of the square ground plane, metres
+
+    def corners(self) -> np.ndarray:
+        """(16, 3) vehicle-frame corners of the object's box and of its plane."""
+        l, w, h = self.model.extents
+        box = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
+        r = self.plane_radius
+        plane = np.array([[sx * r, sy * r, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
+        pts = np.concatenate([box, plane, plane + [0, 0, 0.01]])
+        m = self.vehicle_from_object
+        return pts @ m[:3, :3].T + m[:3, 3]
+
+
+@dataclass(frozen=True, eq=False)
+class RenderPasses:
+    """GL textures of one render (ROI-sized), owned by the renderer's GLContext."""
+
+    roi: Roi
+    camera: Camera  # cropped to the ROI
+    textures: dict[str, moderngl.Texture] = field(repr=False)
+
+    def read(self, name: str) -> np.ndarray:
+        """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id``."""
+        tex = self.textures[name]
+        dtype = np.uint32 if tex.dtype == "u4" else np.float32
+        arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
+        return arr[..., 0] if tex.components == 1 else arr
+
+
+def crop_camera(camera: Camera, roi: Roi) -> Camera:
+    """The camera of a sub-image: same pose, principal point shifted, size of the ROI."""
+    return replace(camera, u0=camera.u0 - roi.x0, v0=camera.v0 - roi.y0, width=roi.width, height=roi.height)
+
+
+def roi_for(camera: Camera, objects: Sequence[RenderObject], margin: int = 4) -> Roi | None:
+    """Screen rectangle holding every object and plane, or None when nothing is on screen."""
+    pts = np.concatenate([o.corners() for o in objects])
+    optical = pts @ camera.optical_from_vehicle[:3, :3].T + camera.optical_from_vehicle[:3, 3]
+    if (optical[:, 2] <= NEAR).any():
+        x0, y0, x1, y1 = 0, 0, camera.width, camera.height
+    else:
+        uv = camera.project(optical)
+        x0 = int(math.floor(uv[:, 0].min())) - margin
+        y0 = int(math.floor(uv[:, 1].min())) - margin
+        x1 = int(math.ceil(uv[:, 0].max())) + margin + 1
+        y1 = int(math.ceil(uv[:, 1].max())) + margin + 1
+    x0, y0 = max(x0, 0), max(y0, 0)
+    x1, y1 = min(x1, camera.width), min(y1, camera.height)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    return Roi(x0, y0, x1 - x0, y1 - y0)
+
+
+def _look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    f = target - eye
+    f = f / np.linalg.norm(f)
+    s = np.cross(f, up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def _ortho(half: float, near: float, far: float) -> np.ndarray:
+    m = np.eye(4)
+    m[0, 0] = m[1, 1] = 1.0 / half
+    m[2, 2] = -2.0 / (far - near)
+    m[2, 3] = -(far + near) / (far - near)
+    return m
+
+
+_BIAS = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+
+
+def _gl(m: np.ndarray) -> bytes:
+    """Row-major NumPy matrix -> column-major float32 bytes for a GLSL mat4 uniform."""
+    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
+
+
+class _GpuModel:
+    """Vertex arrays of one model for each program that draws it."""
+
+    def __init__(self, gl: GLContext, model: Model, programs: dict[str, moderngl.Program]) -> None:
+        self.parts = []
+        for part in model.parts:
+            data = np.concatenate([part.positions, part.normals, part.uvs, part.colors, part.material],
+                                  axis=1).astype(np.float32)
+            vbo = gl.own(gl.ctx.buffer(data.tobytes()))
+            ibo = gl.own(gl.ctx.buffer(part.indices.astype(np.uint32).tobytes()))
+            tex = None
+            if part.texture is not None:
+                tex = gl.texture((part.texture.shape[1], part.texture.shape[0]), 4, part.texture,
+                                 filter_linear=True)
+                tex.build_mipmaps()
+                tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+                tex.repeat_x = tex.repeat_y = True
+            vaos = {}
+            for name, prog in programs.items():
+                if name == "lit":
+                    fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
+                else:
+                    fmt = [(vbo, "3f 44x", "in_position")]
+                vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
+            self.parts.append((vaos, tex))
+
+
+class Renderer:
+    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
+
+    def __init__(self, gl: GLContext, shadow_size: int = 1024) -> None:
+        self.gl = gl
+        ctx = gl.ctx
+        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth")}
+        self._models: dict[str, _GpuModel] = {}
+        self.shadow_maps = []
+        for _ in range(2):  # sun map, top-down sky-occlusion map
+            tex = gl.own(ctx.depth_texture((shadow_size, shadow_size)))
+            tex.compare_func = "<="
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            fbo = gl.own(ctx.framebuffer(depth_attachment=tex))
+            self.shadow_maps.append((tex, fbo))
+        plane = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+        pdata = np.concatenate([plane, np.tile([0, 0, 1], (4, 1)), np.zeros((4, 2)), np.ones((4, 4)),
+                                np.zeros((4, 2))], axis=1).astype(np.float32)
+        self._plane_vbo = gl.own(ctx.buffer(pdata.tobytes()))
+        self._plane_ibo = gl.own(ctx.buffer(np.array([0, 1, 2, 0, 2, 3], np.uint32).tobytes()))
+        self._plane_vao = gl.own(ctx.vertex_array(
+            self.programs["lit"], [(self._plane_vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv",
+                                    "in_color", "in_material")], index_buffer=self._plane_ibo,
+            index_element_size=4))
+
+    def _gpu_model(self, model: Model) -> _GpuModel:
+        if model.key not in self._models:
+            self._models[model.key] = _GpuModel(self.gl, model, self.programs)
+        return self._models[model.key]
+
+    # ---------------------------------------------------------------- shadows
+    def _light_matrices(self, objects: Sequence[RenderObject], lighting: Lighting):
+        pts = np.concatenate([o.corners() for o in objects])
+        centre = (pts.min(0) + pts.max(0)) / 2
+        half = float(np.linalg.norm(pts - centre, axis=1).max()) + 0.1
+        mats = [half]
+        for direction in (np.asarray(lighting.sun_direction, float), np.array([0.0, 0.0, 1.0])):
+            direction = direction / np.linalg.norm(direction)
+            up = np.array([1.0, 0, 0]) if abs(direction[2]) > 0.99 else np.array([0, 0, 1.0])
+            view = _look_at(centre + direction * (half + 5.0), centre, up)
+            mats.append(_ortho(half, 0.1, 2 * half + 10.0) @ view)
+        return mats
+
+    def _draw_shadow_maps(self, objects, mats) -> None:
+        ctx = self.gl.ctx
+        prog = self.programs["depth"]
+        for (tex, fbo), light in zip(self.shadow_maps, mats):
+            fbo.use()
+            fbo.clear(depth=1.0)
+            ctx.enable(moderngl.DEPTH_TEST)
+            prog["u_light"].write(_gl(light))
+            for obj in objects:
+                prog["u_model"].write(_gl(obj.vehicle_from_object))
+                for vaos, _ in self._gpu_model(obj.model).parts:
+                    vaos["depth"].render(moderngl.TRIANGLES)
+
+    # ----------------------------------------------------------------- passes
+    def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
+               roi: Roi | None = None) -> RenderPasses | None:
+        """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle)."""
+        roi = roi or roi_for(camera, objects)
+        if roi is None:
+            return None
+        gl, ctx = self.gl, self.gl.ctx
+        cam = crop_camera(camera, roi)
+        size = (roi.width, roi.height)
+        view = cam.optical_from_vehicle
+        proj = cam.gl_projection(NEAR, FAR)
+        half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
+        self._draw_shadow_maps(objects, (sun_mat, sky_mat))
+
+        # multisampled lit pass -> irpv, alpha, odepth, plane ; then ir
+        ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2)]
+        ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
+        ms_fbo = gl.own(ctx.framebuffer(ms, ms_depth))
+        ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
+        tex = {name: gl.texture(size, c, dtype="f4") for name, c in
+               (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4))}
+        resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"]]))
+        resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
+
+        prog = self.programs["lit"]
+        prog["u_view"].write(_gl(view))
+        prog["u_proj"].write(_gl(proj))
+        prog["u_camera_pos"].value = tuple(camera.position)
+        prog["u_sun_dir"].value = tuple(lighting.sun_direction)
+        prog["u_sun_rgb"].value = tuple(lighting.sun_rgb)
+        prog["u_sky_rgb"].value = tuple(lighting.sky_rgb)
+        prog["u_ground_rgb"].value = tuple(lighting.ground_rgb)
+        prog["u_sun_matrix"].write(_gl(_BIAS @ sun_mat))
+        prog["u_sky_matrix"].write(_gl(_BIAS @ sky_mat))
+        prog["u_sky_radius"].value = 0.5 / (2 * half)  # 0.5 m in map units
+        prog["u_texture"].value = 0
+        prog["u_sun_map"].value = 1
+        prog["u_sky_map"].value = 2
+        self.shadow_maps[0][0].use(1)
+        self.shadow_maps[1][0].use(2)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+
+        for with_objects, fbo in ((True, ms_fbo), (False, ms_fbo_ir)):
+            fbo.use()
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            prog["u_shadows"].value = with_objects
+            prog["u_is_plane"].value = True
+            prog["u_has_texture"].value = False
+            for obj in objects:
+                r = obj.plane_radius
+                scale = np.diag([r, r, 1.0, 1.0])
+                prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
+                prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
+                self._plane_vao.render(moderngl.TRIANGLES)
+            if with_objects:
+                # objects drawn over their planes: polygon offset keeps the contact clean
+                prog["u_is_plane"].value = False
+                for obj in objects:
+                    prog["u_model"].write(_gl(obj.vehicle_from_object))
+                    for vaos, texture in self._gpu_model(obj.model).parts:
+                        prog["u_has_texture"].value = texture is not None
+                        if texture is not None:
+                            texture.use(0)
+                        vaos["lit"].render(moderngl.TRIANGLES)
+                ctx.copy_framebuffer(resolve, ms_fbo)
+            else:
+                ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
+
+        # integer id + depth at pixel centres
+        tex["id"] = gl.texture(size, 1, dtype="u4")
+        tex["id_depth"] = gl.texture(size, 1, dtype="f4")
+        id_depth_rb = gl.own(ctx.depth_renderbuffer(size))
+        id_fbo = gl.own(ctx.framebuffer([tex["id"], tex["id_depth"]], id_depth_rb))
+        id_fbo.use()
+        id_fbo.clear(depth=1.0)
+        tex["id"].write(np.zeros(size[::-1], np.uint32))  # clear() cannot clear integer targets
+        idp = self.programs["id"]
+        idp["u_view"].write(_gl(view))
+        idp["u_proj"].write(_gl(proj))
+        for k, obj in enumerate(objects, start=1):
+            idp["u_model"].write(_gl(obj.vehicle_from_object))
+            idp["u_id"].value = k
+            for vaos, _ in self._gpu_model(obj.model).parts:
+                vaos["id"].render(moderngl.TRIANGLES)
+        for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
+            gl.free(obj)
+        return RenderPasses(roi, cam, tex)
+
+    def release(self, passes: RenderPasses) -> None:
+        for t in passes.textures.values():
+            self.gl.free(t)
