@@ -54,6 +54,8 @@ class GLContext:
         self.ctx = create_context(backend)
         self._programs: dict[str, moderngl.Program] = {}
         self._owned: list = []
+        # bound before a framebuffer is released, so no deleted framebuffer stays current
+        self._idle_fbo = self.own(self.ctx.framebuffer([self.own(self.ctx.renderbuffer((1, 1)))]))
 
     @property
     def renderer_name(self) -> str:
@@ -91,6 +93,8 @@ class GLContext:
 
     def free(self, obj) -> None:
         """Release a GL object early."""
+        if isinstance(obj, moderngl.Framebuffer):
+            self._idle_fbo.use()
         try:
             self._owned.remove(obj)
         except ValueError:

@@ -299,4 +299,13 @@ def traffic_sign_parts(plate_height: float = 2.0, pole_radius: float = 0.035) ->
     return parts
 
 
-BUILTINS = {"traffic-sign": traffic_sign_parts}
+def box_parts() -> list[MeshPart]:
+    """A 1 m cube standing on z = 0 (for tests and placement debugging)."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    box.apply_translation([0, 0, 0.5])
+    return [_coloured(box, (0.8, 0.8, 0.8), smooth=False)]
+
+
+BUILTINS = {"traffic-sign": traffic_sign_parts, "box": box_parts}

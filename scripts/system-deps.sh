@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Install the system libraries synthcompose needs (headless EGL via Mesa, assimp) when missing.
+# Debian/Ubuntu; uses apt-get as root, or sudo when available.
+set -euo pipefail
+
+need=()
+have_lib() { ldconfig -p 2>/dev/null | grep -q "$1"; }
+have_lib 'libEGL.so.1'      || need+=(libegl1)
+have_lib 'libEGL_mesa.so.0' || need+=(libegl-mesa0)
+ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/dri/kms_swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
+have_lib 'libGL.so.1'       || need+=(libgl1)
+have_lib 'libassimp.so'     || need+=(libassimp5)
+
+if [ ${#need[@]} -eq 0 ]; then
+  exit 0
+fi
+echo "installing system packages: ${need[*]}"
+if ! command -v apt-get >/dev/null; then
+  echo "error: missing ${need[*]} and no apt-get here; install the equivalent packages by hand" >&2
+  exit 1
+fi
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "error: need root (or sudo) to install ${need[*]}" >&2; exit 1; }
+  SUDO=sudo
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${need[@]}"
