@@ -39,7 +39,9 @@ uniform bool u_is_plane;        // ground plane (Ir / Irpv) or object
 uniform bool u_shadows;         // false for Ir: the plane alone, nothing casts shadows
 uniform bool u_has_texture;
 uniform sampler2D u_texture;    // sRGB base colour
-uniform vec3 u_plane_albedo;    // linear
+uniform vec3 u_plane_albedo;    // linear; used when u_plane_from_photo is false
+uniform bool u_plane_from_photo; // plane albedo = photo / unshadowed irradiance, per pixel
+uniform sampler2D u_photo;      // the photo's region of interest, sRGB
 uniform vec3 u_camera_pos;      // vehicle frame
 uniform vec3 u_sun_dir;         // vehicle frame, towards the sun
 uniform vec3 u_sun_rgb;         // irradiance on a surface facing the sun
@@ -85,7 +87,14 @@ void main() {
     vec3 albedo;
     float metallic, roughness;
     if (u_is_plane) {
-        albedo = u_plane_albedo; metallic = 0.0; roughness = 1.0;
+        metallic = 0.0; roughness = 1.0;
+        albedo = u_plane_albedo;
+        if (u_plane_from_photo) {
+            // projective texturing: the plane alone (Ir) reproduces the photo exactly, so
+            // R + Irpv - Ir = R * (shadowed / unshadowed light): shadows darken the real road
+            vec3 unshadowed = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) + u_sun_rgb * max(dot(n, u_sun_dir), 0.0);
+            albedo = srgb_to_linear(texelFetch(u_photo, ivec2(gl_FragCoord.xy), 0).rgb) / max(unshadowed, vec3(1e-4));
+        }
     } else {
         albedo = v_color.rgb;
         if (u_has_texture) albedo *= srgb_to_linear(texture(u_texture, v_uv).rgb);

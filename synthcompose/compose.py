@@ -72,15 +72,18 @@ class Composer:
         roi = passes.roi
         rows, cols = roi.slices
         size = (roi.width, roi.height)
-        inputs = {
-            "u_photo": gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1"),
+        made = {
             "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
             "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
             "u_instances": gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4"),
             "u_disparity": gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4"),
         }
-        for name in ("irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth"):
-            inputs[f"u_{name}"] = passes.textures[name]
+        if "photo" not in passes.textures:
+            made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
+        inputs = dict(made)
+        for name in ("photo", "irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth"):
+            if name in passes.textures:
+                inputs[f"u_{name}"] = passes.textures[name]
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
             self.prog[name].value = unit
@@ -105,8 +108,7 @@ class Composer:
         disparity = np.frombuffer(outs[3].read(), np.uint32).reshape(h, w)
         visible = np.frombuffer(outs[4].read(), np.uint32).reshape(h, w)
         gl.free(fbo)
-        for tex in outs + [inputs[k] for k in ("u_photo", "u_scene_depth", "u_labels", "u_instances",
-                                                 "u_disparity")]:
+        for tex in outs + list(made.values()):
             gl.free(tex)
         return {"rgb": rgb, "label_ids": label.astype(np.uint8), "instance_ids": instance.astype(np.int32),
                 "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}

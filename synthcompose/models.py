@@ -161,7 +161,8 @@ def _load_assimp(path: Path) -> list[MeshPart]:
     try:
         import pyassimp
         import pyassimp.postprocess as pp
-    except Exception as exc:  # missing libassimp
+        from pyassimp.errors import AssimpError
+    except (Exception, BaseException) as exc:  # pyassimp raises AssimpError(BaseException) without libassimp
         raise ModelError(path, f"FBX needs pyassimp and the assimp library ({exc})") from None
     flags = pp.aiProcess_Triangulate | pp.aiProcess_PreTransformVertices | pp.aiProcess_GenSmoothNormals
     try:
@@ -184,8 +185,8 @@ def _load_assimp(path: Path) -> list[MeshPart]:
             return parts
     except ModelError:
         raise
-    except Exception as exc:
-        raise ModelError(path, f"assimp cannot read it ({type(exc).__name__}: {exc})") from None
+    except (Exception, AssimpError) as exc:  # AssimpError derives from BaseException
+        raise ModelError(path, f"assimp cannot read it ({exc})") from None
 
 
 def _axis_matrix(up: str, forward: str, path) -> np.ndarray:

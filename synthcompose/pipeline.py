@@ -197,7 +197,7 @@ class Pipeline:
                 radius = max(pl.extents[0], pl.extents[1]) * 0.5 + 0.5 * pl.extents[2] + 0.5
                 objects.append(RenderObject(rec["model"], pl.matrix, albedo, radius))
                 rec["plane_albedo"] = albedo
-            passes = self.renderer.render(cam, objects, m.lighting)
+            passes = self.renderer.render(cam, objects, m.lighting, photo=image_set.rgb)
         with _timed(timings, "compose"):
             scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
                                 depth, cam.baseline * cam.fx * 256.0)

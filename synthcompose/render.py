@@ -240,14 +240,23 @@ class Renderer:
 
     # ----------------------------------------------------------------- passes
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
-               roi: Roi | None = None) -> RenderPasses | None:
-        """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle)."""
+               photo: np.ndarray | None = None, roi: Roi | None = None) -> RenderPasses | None:
+        """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
+
+        ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
+        their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
+        passes as ``photo`` for the compose stage.
+        """
         roi = roi or roi_for(camera, objects)
         if roi is None:
             return None
         gl, ctx = self.gl, self.gl.ctx
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
+        tex: dict[str, moderngl.Texture] = {}
+        if photo is not None:
+            rows, cols = roi.slices
+            tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
         half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
@@ -258,8 +267,8 @@ class Renderer:
         ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
         ms_fbo = gl.own(ctx.framebuffer(ms, ms_depth))
         ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
-        tex = {name: gl.texture(size, c, dtype="f4") for name, c in
-               (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4))}
+        tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
+                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4))})
         resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"]]))
         resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
 
@@ -277,8 +286,12 @@ class Renderer:
         prog["u_texture"].value = 0
         prog["u_sun_map"].value = 1
         prog["u_sky_map"].value = 2
+        prog["u_photo"].value = 3
+        prog["u_plane_from_photo"].value = photo is not None
         self.shadow_maps[0][0].use(1)
         self.shadow_maps[1][0].use(2)
+        if photo is not None:
+            tex["photo"].use(3)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 

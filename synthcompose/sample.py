@@ -379,9 +379,9 @@ def _rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(H, W) float32 x, y, z components in V of every pixel-centre ray (optical z = 1)."""
     a = ((np.arange(camera.width) - camera.u0) / camera.fx).astype(np.float32)[None, :]
     b = ((np.arange(camera.height) - camera.v0) / camera.fy).astype(np.float32)[:, None]
-    m = camera.vehicle_from_optical[:3, :3]
-    return tuple(np.float32(m[i, 0]) * a + np.float32(m[i, 1]) * b + np.float32(m[i, 2])  # type: ignore[return-value]
-                 for i in range(3))
+    m = camera.vehicle_from_optical[:3, :3].astype(np.float32)
+    dx, dy, dz = (m[i, 0] * a + m[i, 1] * b + m[i, 2] for i in range(3))
+    return dx, dy, dz
 
 
 def _screen_rect(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[slice, slice] | None:
@@ -569,7 +569,7 @@ def _box_albedo(box: Box, p: np.ndarray, face: np.ndarray, y_center_sign: float)
         window = vertical & (fl >= 1) & (fz > 0.32) & (fz < 0.78) & (fs > 0.3) & (fs < 0.7) & (zz < top - 0.9)
         sill = vertical & (fl >= 1) & (fz > 0.28) & (fz <= 0.32) & (fs > 0.28) & (fs < 0.72) & (zz < top - 0.9)
         # about half of the buildings have shop windows on the ground floor, the rest small ones
-        shops = float(_hash01(np.array([math.floor(lo[0] * 10)]), np.array([math.floor(lo[1] * 10)]), 10)[0]) < 0.5
+        shops = bool(_hash01(np.floor(lo[:1] * 10), np.floor(lo[1:2] * 10), 10)[0] < 0.5)
         if shops:
             shop = vertical & (fl == 0) & (fz > 0.15) & (fz < 0.8) & (fs > 0.1) & (fs < 0.9)
         else:
