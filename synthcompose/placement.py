@@ -27,6 +27,12 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
     "person": ("sidewalk",), "traffic sign": ("sidewalk",), "traffic light": ("sidewalk",),
     "pole": ("sidewalk",),
 }
+#: a footprint sample is on the real ground when |scene depth - its depth| <= REL * depth + ABS
+#: (a 15 cm kerb drop seen from 1.2 m moves the ground ~14% further away)
+SUPPORT_TOL_REL = 0.02
+SUPPORT_TOL_ABS = 0.05
+#: a ground point is on the fitted plane when within this height of it, metres
+INLIER_BAND = 0.04
 #: default orientation rule per class: along the road, facing the camera, or random
 ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
 
@@ -39,10 +45,12 @@ class PlacementRules:
     clearance: float = 0.12  # scene points lower than this above the ground are not obstacles, metres
     margin: float = 0.10  # the collision box is this much larger than the object, metres
     min_collision_points: int = 3  # fewer points inside the box count as depth noise
-    min_footprint_allowed: float = 0.9  # share of the visible footprint on allowed labels
+    min_footprint_allowed: float = 0.97  # share of the visible footprint on allowed labels
+    footprint_margin: float = 0.15  # the supporting ground must reach this far beyond the footprint, metres
     max_ground_rms: float = 0.05  # metres
     max_ground_tilt_deg: float = 12.0
     min_ground_points: int = 30
+    min_ground_inliers: float = 0.6  # share of the local ground points on the fitted plane
 
 
 @dataclass(frozen=True)
@@ -94,13 +102,24 @@ def _yaw_for(orientation: str, rng: np.random.Generator, jitter: float, point: n
     return base + float(rng.uniform(-jitter, jitter))
 
 
-def fit_ground(points: np.ndarray, iterations: int = 3) -> tuple[np.ndarray, float, int] | None:
-    """Robust plane z = a x + b y + c through (N, 3) points: least squares with outlier trimming.
+def fit_ground(points: np.ndarray, centre: np.ndarray | None = None, iterations: int = 4,
+               band: float = 0.08) -> tuple[np.ndarray, float, int] | None:
+    """Robust plane z = a x + b y + c through (N, 3) points (metres, V).
 
-    Returns ((a, b, c), rms of the inliers in metres, inlier count), or None if too few points.
+    Starts from a level plane at the median height of the points nearest ``centre`` (so a
+    kerb face or a lower road next to a sidewalk cannot pull the plane), keeps the points
+    within ``band`` of it, then alternates least squares and trimming at 3 robust sigmas.
+    Returns ((a, b, c), rms of the kept points in metres, count of points within
+    :data:`INLIER_BAND` of the plane), or None if too few points.
     """
-    keep = np.ones(len(points), bool)
-    coef = None
+    if len(points) < 3:
+        return None
+    if centre is None:
+        centre = np.median(points, axis=0)
+    d2 = (points[:, 0] - centre[0]) ** 2 + (points[:, 1] - centre[1]) ** 2
+    nearest = np.argsort(d2)[: max(10, len(points) // 5)]
+    coef = np.array([0.0, 0.0, float(np.median(points[nearest, 2]))])
+    keep = np.abs(points[:, 2] - coef[2]) < band
     for _ in range(iterations):
         p = points[keep]
         if len(p) < 3:
@@ -108,11 +127,34 @@ def fit_ground(points: np.ndarray, iterations: int = 3) -> tuple[np.ndarray, flo
         A = np.column_stack([p[:, 0], p[:, 1], np.ones(len(p))])
         coef, *_ = np.linalg.lstsq(A, p[:, 2], rcond=None)
         res = points[:, 2] - (points[:, 0] * coef[0] + points[:, 1] * coef[1] + coef[2])
-        mad = np.median(np.abs(res[keep])) + 1e-3
-        keep = np.abs(res) < 3.0 * 1.4826 * mad + 0.01
+        mad = np.median(np.abs(res[keep]))
+        keep = np.abs(res) < max(3.0 * 1.4826 * mad, 0.02)
     p = points[keep]
+    if len(p) < 3:
+        return None
     res = p[:, 2] - (p[:, 0] * coef[0] + p[:, 1] * coef[1] + coef[2])
-    return coef, float(np.sqrt(np.mean(res ** 2))), int(keep.sum())
+    all_res = points[:, 2] - (points[:, 0] * coef[0] + points[:, 1] * coef[1] + coef[2])
+    return coef, float(np.sqrt(np.mean(res ** 2))), int((np.abs(all_res) <= INLIER_BAND).sum())
+
+
+def surface_normals(depth: np.ndarray, camera: Camera, rows: np.ndarray, cols: np.ndarray,
+                    step: int = 2) -> np.ndarray:
+    """(N, 3) unit normals (V frame, z >= 0) of the real surface at pixels (rows, cols), from
+    the 3D points ``step`` pixels above/below and left/right; NaN where depth is missing."""
+    H, W = depth.shape
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    r0, r1 = np.clip(rows - step, 0, H - 1), np.clip(rows + step, 0, H - 1)
+    c0, c1 = np.clip(cols - step, 0, W - 1), np.clip(cols + step, 0, W - 1)
+    m = camera.vehicle_from_optical[:3, :3]
+
+    def point(r, c):
+        z = depth[r, c]
+        return np.column_stack([(c - camera.u0) * z / camera.fx, (r - camera.v0) * z / camera.fy, z]) @ m.T
+
+    with np.errstate(invalid="ignore", divide="ignore"):  # inf depth gives NaN normals
+        n = np.cross(point(rows, c1) - point(rows, c0), point(r1, cols) - point(r0, cols))
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    return np.where(n[:, 2:3] < 0, -n, n)
 
 
 def pose_matrix(position: np.ndarray, normal: np.ndarray, yaw: float) -> np.ndarray:
@@ -182,28 +224,38 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
         return PlacementResult(None, 0, dict(rejections))
     allowed_pts = cloud.vehicle[on_allowed]
     jitter = math.radians(rules.yaw_jitter_deg)
+    min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
     l, w, h = extents
     reach = math.hypot(l, w) / 2 + 0.5
     other_prints = [_footprint_2d(o.matrix, o.extents) for o in others]
     H, W = label_ids.shape
     opt_from_v = camera.optical_from_vehicle
-    gx, gy = np.meshgrid(np.linspace(-0.45, 0.45, 7), np.linspace(-0.45, 0.45, 5))
-    grid = np.column_stack([gx.ravel() * l, gy.ravel() * w, np.zeros(gx.size)])
+    fm = rules.footprint_margin
+    gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
+    grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
 
     for attempt in range(1, rules.max_attempts + 1):
         idx = candidates[rng.integers(len(candidates))]
         point = cloud.vehicle[idx].astype(float)
+        # 0. the candidate pixel must be ground-like, not a kerb face or a wall
+        n_here = surface_normals(depth, camera, cloud.pixels[idx:idx + 1, 0], cloud.pixels[idx:idx + 1, 1])[0]
+        if not n_here[2] >= min_up:  # NaN-safe
+            rejections["candidate surface not horizontal"] += 1
+            continue
         # 1. local ground
         near = allowed_pts[(np.abs(allowed_pts[:, 0] - point[0]) <= reach)
                            & (np.abs(allowed_pts[:, 1] - point[1]) <= reach)]
         if len(near) < rules.min_ground_points:
             rejections["too few ground points"] += 1
             continue
-        fit = fit_ground(near.astype(float))
+        fit = fit_ground(near.astype(float), point)
         if fit is None:
             rejections["too few ground points"] += 1
             continue
-        (a, b, c), rms, _ = fit
+        (a, b, c), rms, inliers = fit
+        if inliers < rules.min_ground_inliers * len(near):
+            rejections["ground not planar (step or kerb)"] += 1
+            continue
         normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)
         if rms > rules.max_ground_rms:
             rejections["ground not flat (rms too high)"] += 1
@@ -211,7 +263,11 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
         if math.degrees(math.acos(normal[2])) > rules.max_ground_tilt_deg:
             rejections["ground too steep"] += 1
             continue
-        position = np.array([point[0], point[1], a * point[0] + b * point[1] + c])
+        ground_z = a * point[0] + b * point[1] + c
+        if abs(point[2] - ground_z) > rules.max_ground_rms + 0.02:
+            rejections["candidate point is off the fitted ground (kerb face, noise)"] += 1
+            continue
+        position = np.array([point[0], point[1], ground_z])
         yaw = _yaw_for(orientation, rng, jitter, position, camera)
         m = pose_matrix(position, normal, yaw)
         # 2. whole object inside the image, in front of the camera
@@ -230,11 +286,16 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
         foot_o = foot_v @ opt_from_v[:3, :3].T + opt_from_v[:3, 3]
         fuv = np.rint(camera.project(foot_o)).astype(int)
         fu, fv = np.clip(fuv[:, 0], 0, W - 1), np.clip(fuv[:, 1], 0, H - 1)
-        seen = depth[fv, fu] >= foot_o[:, 2] * 0.97 - 0.1
+        scene_d, foot_d = depth[fv, fu], foot_o[:, 2]
+        tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
+        seen = scene_d >= foot_d - tol  # not hidden behind something nearer
         if seen.sum() < 0.3 * len(seen):
             rejections["footprint hidden"] += 1
             continue
-        share = np.isin(label_ids[fv, fu][seen], allowed_ids).mean()
+        # a seen sample is supported when the real ground is there: allowed label, same depth
+        supported = np.isin(label_ids[fv, fu], allowed_ids) & (scene_d <= foot_d + tol)
+        supported &= surface_normals(depth, camera, fv, fu)[:, 2] >= min_up  # not a kerb face
+        share = supported[seen].mean()
         if share < rules.min_footprint_allowed:
             rejections["footprint off the allowed surface"] += 1
             continue
