@@ -233,7 +233,6 @@ class Pipeline:
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
                 })
             record["status"] = "done"
-            record["timings_s"] = {k: round(v, 4) for k, v in timings.items()}
             write_record(m.output, ident, record)
         return Outcome(ident.key, "done", None, len(placed), timings)
 
