@@ -222,6 +222,9 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
     if len(candidates) == 0:
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
+    # near ground covers far more pixels than far ground: weight pixels by depth^2 so that
+    # distances come out roughly evenly spread over the allowed range
+    cdf = np.cumsum(cloud.optical[candidates, 2].astype(np.float64) ** 2)
     allowed_pts = cloud.vehicle[on_allowed]
     jitter = math.radians(rules.yaw_jitter_deg)
     min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
@@ -234,70 +237,73 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
     gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
     grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
 
-    for attempt in range(1, rules.max_attempts + 1):
-        idx = candidates[rng.integers(len(candidates))]
-        point = cloud.vehicle[idx].astype(float)
-        # 0. the candidate pixel must be ground-like, not a kerb face or a wall
-        n_here = surface_normals(depth, camera, cloud.pixels[idx:idx + 1, 0], cloud.pixels[idx:idx + 1, 1])[0]
-        if not n_here[2] >= min_up:  # NaN-safe
-            rejections["candidate surface not horizontal"] += 1
-            continue
-        # 1. local ground
-        near = allowed_pts[(np.abs(allowed_pts[:, 0] - point[0]) <= reach)
-                           & (np.abs(allowed_pts[:, 1] - point[1]) <= reach)]
-        if len(near) < rules.min_ground_points:
-            rejections["too few ground points"] += 1
-            continue
-        fit = fit_ground(near.astype(float), point)
-        if fit is None:
-            rejections["too few ground points"] += 1
-            continue
-        (a, b, c), rms, inliers = fit
-        if inliers < rules.min_ground_inliers * len(near):
-            rejections["ground not planar (step or kerb)"] += 1
-            continue
-        normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)
-        if rms > rules.max_ground_rms:
-            rejections["ground not flat (rms too high)"] += 1
-            continue
-        if math.degrees(math.acos(normal[2])) > rules.max_ground_tilt_deg:
-            rejections["ground too steep"] += 1
-            continue
-        ground_z = a * point[0] + b * point[1] + c
-        if abs(point[2] - ground_z) > rules.max_ground_rms + 0.02:
-            rejections["candidate point is off the fitted ground (kerb face, noise)"] += 1
-            continue
-        position = np.array([point[0], point[1], ground_z])
-        yaw = _yaw_for(orientation, rng, jitter, position, camera)
-        m = pose_matrix(position, normal, yaw)
-        # 2. whole object inside the image, in front of the camera
-        corners = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
-        corners_v = corners @ m[:3, :3].T + m[:3, 3]
-        corners_o = corners_v @ opt_from_v[:3, :3].T + opt_from_v[:3, 3]
+    corners = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
+
+    def image_check(m: np.ndarray) -> str | None:
+        """Cheap tests in the image: whole object on screen, footprint on seen allowed ground."""
+        corners_o = corners @ (opt_from_v @ m)[:3, :3].T + (opt_from_v @ m)[:3, 3]
         if (corners_o[:, 2] <= 1.0).any():
-            rejections["partly behind the camera"] += 1
-            continue
+            return "partly behind the camera"
         uv = camera.project(corners_o)
         if (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any():
-            rejections["not fully inside the image"] += 1
-            continue
-        # 3. footprint on allowed labels (where the ground there is seen)
-        foot_v = grid @ m[:3, :3].T + m[:3, 3]
-        foot_o = foot_v @ opt_from_v[:3, :3].T + opt_from_v[:3, 3]
+            return "not fully inside the image"
+        foot_o = grid @ (opt_from_v @ m)[:3, :3].T + (opt_from_v @ m)[:3, 3]
         fuv = np.rint(camera.project(foot_o)).astype(int)
         fu, fv = np.clip(fuv[:, 0], 0, W - 1), np.clip(fuv[:, 1], 0, H - 1)
         scene_d, foot_d = depth[fv, fu], foot_o[:, 2]
         tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
         seen = scene_d >= foot_d - tol  # not hidden behind something nearer
         if seen.sum() < 0.3 * len(seen):
-            rejections["footprint hidden"] += 1
-            continue
-        # a seen sample is supported when the real ground is there: allowed label, same depth
+            return "footprint hidden"
+        # a seen sample is supported when the real ground is there: allowed label, same
+        # depth, and a ground-like surface (not the face of a kerb)
         supported = np.isin(label_ids[fv, fu], allowed_ids) & (scene_d <= foot_d + tol)
-        supported &= surface_normals(depth, camera, fv, fu)[:, 2] >= min_up  # not a kerb face
-        share = supported[seen].mean()
-        if share < rules.min_footprint_allowed:
-            rejections["footprint off the allowed surface"] += 1
+        supported &= surface_normals(depth, camera, fv, fu)[:, 2] >= min_up
+        if supported[seen].mean() < rules.min_footprint_allowed:
+            return "footprint off the allowed surface"
+        return None
+
+    for attempt in range(1, rules.max_attempts + 1):
+        idx = candidates[np.searchsorted(cdf, rng.random() * cdf[-1], side="right")]
+        point = cloud.vehicle[idx].astype(float)
+        # 1. the candidate pixel must be ground-like, not a kerb face or a wall
+        n_here = surface_normals(depth, camera, cloud.pixels[idx:idx + 1, 0], cloud.pixels[idx:idx + 1, 1])[0]
+        if not n_here[2] >= min_up:  # NaN-safe
+            rejections["candidate surface not horizontal"] += 1
+            continue
+        yaw = _yaw_for(orientation, rng, jitter, point, camera)
+        # 2. cheap image-space tests on a provisional pose (the pixel's own normal)
+        why = image_check(pose_matrix(point, n_here, yaw))
+        if why:
+            rejections[why] += 1
+            continue
+        # 3. the local ground: robust plane through the allowed points around the candidate
+        near = allowed_pts[(np.abs(allowed_pts[:, 0] - point[0]) <= reach)
+                           & (np.abs(allowed_pts[:, 1] - point[1]) <= reach)]
+        fit = fit_ground(near.astype(float), point) if len(near) >= rules.min_ground_points else None
+        if fit is None:
+            rejections["too few ground points"] += 1
+            continue
+        (a, b, c), rms, inliers = fit
+        normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)
+        ground_z = a * point[0] + b * point[1] + c
+        why = None
+        if inliers < rules.min_ground_inliers * len(near):
+            why = "ground not planar (step or kerb)"
+        elif rms > rules.max_ground_rms:
+            why = "ground not flat (rms too high)"
+        elif math.degrees(math.acos(normal[2])) > rules.max_ground_tilt_deg:
+            why = "ground too steep"
+        elif abs(point[2] - ground_z) > rules.max_ground_rms + 0.02:
+            why = "candidate point is off the fitted ground (kerb face, noise)"
+        if why:
+            rejections[why] += 1
+            continue
+        position = np.array([point[0], point[1], ground_z])
+        m = pose_matrix(position, normal, yaw)
+        why = image_check(m)  # again, on the final pose
+        if why:
+            rejections[why] += 1
             continue
         # 4. other objects of this frame
         mine = _footprint_2d(m, extents)
