@@ -41,3 +41,6 @@ test: system venv ## run the test suite
 
 clean: ## remove generated outputs (keeps the virtualenv)
 	rm -rf out $(SAMPLE)
+
+bench: system venv ## measure per-stage time at 2048x1024 against the PNG codec floor
+	$(PY) benchmarks/bench_pipeline.py
