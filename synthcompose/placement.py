@@ -44,6 +44,7 @@ class PlacementRules:
     yaw_jitter_deg: float = 5.0
     clearance: float = 0.12  # scene points lower than this above the ground are not obstacles, metres
     margin: float = 0.10  # the collision box is this much larger than the object, metres
+    object_gap: float = 0.6  # least ground distance between two inserted objects, metres
     min_collision_points: int = 3  # fewer points inside the box count as depth noise
     min_footprint_allowed: float = 0.97  # share of the visible footprint on allowed labels
     footprint_margin: float = 0.15  # the supporting ground must reach this far beyond the footprint, metres
@@ -188,9 +189,10 @@ def strict_inside(points: np.ndarray, m: np.ndarray, extents, clearance: float, 
             & (local[:, 2] >= clearance) & (local[:, 2] <= h + margin))
 
 
-def _footprint_2d(m: np.ndarray, extents) -> np.ndarray:
-    l, w, _ = extents
-    local = np.array([[l / 2, w / 2, 0], [-l / 2, w / 2, 0], [-l / 2, -w / 2, 0], [l / 2, -w / 2, 0]])
+def footprint_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
+    """(4, 2) ground-plan corners of the footprint, each side pushed out by ``grow`` metres."""
+    l, w = extents[0] / 2 + grow, extents[1] / 2 + grow
+    local = np.array([[l, w, 0], [-l, w, 0], [-l, -w, 0], [l, -w, 0]])
     return (local @ m[:3, :3].T + m[:3, 3])[:, :2]
 
 
@@ -230,7 +232,7 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
     min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
     l, w, h = extents
     reach = math.hypot(l, w) / 2 + 0.5
-    other_prints = [_footprint_2d(o.matrix, o.extents) for o in others]
+    other_prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
     H, W = label_ids.shape
     opt_from_v = camera.optical_from_vehicle
     fm = rules.footprint_margin
@@ -306,7 +308,7 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
             rejections[why] += 1
             continue
         # 4. other objects of this frame
-        mine = _footprint_2d(m, extents)
+        mine = footprint_corners(m, extents, rules.object_gap / 2)
         if any(footprints_overlap(mine, o) for o in other_prints):
             rejections["overlaps another inserted object"] += 1
             continue

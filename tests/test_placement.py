@@ -62,10 +62,13 @@ def test_placed_objects_stand_on_allowed_ground_and_hit_nothing(frame, cls):
         vol = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()]) @ p.matrix[:3, :3].T + p.matrix[:3, 3]
         assert not _inside_scene_solids(scene, vol).any()
         assert rules.distance[0] <= p.distance <= rules.distance[1]
-    # objects of one frame do not overlap each other
-    for i in range(len(placed)):
-        for j in range(i + 1, len(placed)):
-            assert np.hypot(*(placed[i].position[:2] - placed[j].position[:2])) > 0.3
+    # objects of one frame keep their distance: footprints grown by half the gap do not overlap
+    from synthcompose.placement import footprint_corners, footprints_overlap
+
+    grown = [footprint_corners(p.matrix, p.extents, rules.object_gap / 2 - 1e-6) for p in placed]
+    for i in range(len(grown)):
+        for j in range(i + 1, len(grown)):
+            assert not footprints_overlap(grown[i], grown[j])
 
 
 def test_no_road_gives_no_valid_placement_not_a_crash():
