@@ -5,7 +5,8 @@ invalid. Depth along the optical axis is z = baseline * fx / d (metres).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -69,3 +70,64 @@ def point_cloud(depth: np.ndarray, label_ids: np.ndarray, camera: Camera) -> Poi
     m = camera.vehicle_from_optical.astype(np.float32)
     vehicle = optical @ m[:3, :3].T + m[:3, 3]
     return PointCloud(np.stack([v, u], axis=1).astype(np.int32), optical, vehicle, label_ids[v, u])
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """Everything placement needs to know about one real frame.
+
+    depth     : (H, W) float32 metres along the optical axis, inf where unknown
+    label_ids : (H, W) uint8 (or labels derived from geometry for unlabelled frames)
+    cloud     : the valid-depth pixels as 3D points
+    The pixel grid doubles as a spatial index: every scene point inside a 3D box projects
+    inside the box's 2D projection, so :meth:`rect_points` finds them without a search.
+    """
+
+    camera: Camera
+    depth: np.ndarray
+    label_ids: np.ndarray
+    cloud: PointCloud
+    labelled: bool = True
+    cache: dict = field(default_factory=dict, repr=False)  # per-frame results of later stages
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.depth.shape
+
+    def to_optical(self, points_v: np.ndarray) -> np.ndarray:
+        """(N, 3) vehicle-frame points -> (N, 3) optical-frame points."""
+        m = self.camera.optical_from_vehicle
+        return np.asarray(points_v, float) @ m[:3, :3].T + m[:3, 3]
+
+    def rect_points(self, r0: int, r1: int, c0: int, c1: int) -> tuple[np.ndarray, np.ndarray]:
+        """Vehicle-frame points (N, 3) and labels (N,) of valid pixels in rows r0:r1, cols c0:c1."""
+        H, W = self.depth.shape
+        r0, r1, c0, c1 = max(r0, 0), min(r1, H), max(c0, 0), min(c1, W)
+        if r1 <= r0 or c1 <= c0:
+            return np.empty((0, 3)), np.empty(0, np.uint8)
+        sub = self.depth[r0:r1, c0:c1]
+        v, u = np.nonzero(np.isfinite(sub))
+        z = sub[v, u].astype(np.float64)
+        v, u = v + r0, u + c0
+        cam = self.camera
+        optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
+        m = cam.vehicle_from_optical
+        return optical @ m[:3, :3].T + m[:3, 3], self.label_ids[v, u]
+
+    def box_rect(self, corners_v: np.ndarray, pad: int = 1) -> tuple[int, int, int, int] | None:
+        """Pixel rectangle (r0, r1, c0, c1) holding the projection of points in front of the camera."""
+        opt = self.to_optical(corners_v)
+        if (opt[:, 2] <= 0.1).any():
+            return None
+        uv = self.camera.project(opt)
+        return (int(np.floor(uv[:, 1].min())) - pad, int(np.ceil(uv[:, 1].max())) + pad + 1,
+                int(np.floor(uv[:, 0].min())) - pad, int(np.ceil(uv[:, 0].max())) + pad + 1)
+
+    @cached_property
+    def ground_distance(self) -> np.ndarray:
+        """(N,) distance on the ground plane from the camera to each cloud point, metres."""
+        return np.hypot(self.cloud.vehicle[:, 0] - self.camera.x, self.cloud.vehicle[:, 1] - self.camera.y)
+
+
+def make_frame(depth: np.ndarray, label_ids: np.ndarray, camera: Camera, labelled: bool = True) -> Frame:
+    return Frame(camera, depth, label_ids, point_cloud(depth, label_ids, camera), labelled)

@@ -50,7 +50,7 @@ SCHEMA: dict[str, Any] = {
                     "forward": _AXIS,
                     "weight": _POS,
                     "allowed_surfaces": {"type": "array", "items": {"type": "string"}, "minItems": 1},
-                    "orientation": {"enum": ["along-road", "face-camera", "random"]},
+                    "orientation": {"enum": ["along-road", "parked", "face-camera", "random"]},
                 },
             },
         },
@@ -62,6 +62,11 @@ SCHEMA: dict[str, Any] = {
                 "yaw_jitter_deg": {"type": "number", "minimum": 0},
                 "min_footprint_allowed": {"type": "number", "minimum": 0, "maximum": 1},
                 "clearance": {"type": "number", "minimum": 0},
+                "object_gap": {"type": "number", "minimum": 0},
+                "min_visible_pixels": {"type": "integer", "minimum": 0},
+                "max_occluded_fraction": {"type": "number", "minimum": 0, "maximum": 1},
+                "allow_truncation": {"type": "boolean"},
+                "parked_kerb_gap": {"type": "number", "minimum": 0},
             },
         },
         "lighting": {
@@ -139,7 +144,7 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
             allowed_surfaces=tuple(o["allowed_surfaces"]) if "allowed_surfaces" in o else None,
             orientation=o.get("orientation")))
     p = data.get("placement", {})
-    dist = tuple(p.get("distance", PlacementRules.distance))
+    dist = tuple(float(v) for v in p.get("distance", PlacementRules.distance))
     if dist[0] >= dist[1]:
         raise ManifestError(path, f"field 'placement/distance': minimum {dist[0]} must be below maximum {dist[1]}")
     rules = PlacementRules(distance=dist, **{k: v for k, v in p.items() if k != "distance"})

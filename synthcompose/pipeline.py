@@ -22,7 +22,7 @@ from . import __version__
 from .compose import Composer, SceneLayers
 from .dataset import ImageSet, ImageSetId, find_image_sets, read_image_set
 from .errors import InputError, SynthComposeError
-from .geometry import disparity_to_depth, point_cloud
+from .geometry import disparity_to_depth, make_frame
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .manifest import Manifest, ObjectSpec
@@ -147,7 +147,7 @@ class Pipeline:
         with _timed(timings, "geometry"):
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)
-            cloud = point_cloud(depth, image_set.label_ids, cam)
+            frame = make_frame(depth, image_set.label_ids, cam)
         rng = image_set_rng(m.seed, ident)
         placed: list[tuple[ObjectSpec, Placement, int]] = []
         records, failures = [], []
@@ -156,9 +156,8 @@ class Pipeline:
             for _ in range(m.objects_per_image):
                 spec = m.objects[int(rng.choice(len(m.objects), p=self._weights))]
                 model = load_model(spec.model, spec.size, spec.up, spec.forward)
-                result = place_object(spec.class_name, model.extents, cloud, depth, image_set.label_ids, cam, rng,
-                                      m.rules, spec.allowed_surfaces, spec.orientation,
-                                      tuple(p for _, p, _ in placed))
+                result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
+                                      spec.orientation, [p for _, p, _ in placed])
                 if result.placement is None:
                     failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
                                      "attempts": result.attempts, "rejections": result.rejections})
@@ -203,7 +202,9 @@ class Pipeline:
                                 depth, cam.baseline * cam.fx * 256.0)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
             composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed])
+            rendered = np.zeros(len(placed) + 1, np.int64)
             if passes is not None:
+                rendered = np.bincount(passes.read("id").ravel(), minlength=len(placed) + 1)
                 self.renderer.release(passes)
         with _timed(timings, "write"):
             write_outputs(m.output, ident, composed, camera_json)
@@ -227,9 +228,13 @@ class Pipeline:
                     "ground": {"normal": [round(v, 5) for v in pl.ground_normal], "rms_m": round(pl.ground_rms, 4),
                                "albedo_linear": [round(v, 4) for v in rec["plane_albedo"]]},
                     "distance_m": round(pl.distance, 3),
+                    "road_yaw_deg": None if pl.road_yaw is None else round(math.degrees(pl.road_yaw), 3),
                     "pixel": list(pl.pixel),
                     "bbox_2d": bbox,
                     "visible_pixels": int(mask.sum()),
+                    "rendered_pixels": int(rendered[k]),
+                    "occluded_fraction": round(1.0 - int(mask.sum()) / max(int(rendered[k]), 1), 4),
+                    "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
                 })
             record["status"] = "done"

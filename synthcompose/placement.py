@@ -1,23 +1,36 @@
 """Stage 3 - placement: where an object stands in the real scene, and why.
 
-A candidate is a random point of an allowed surface (by label) with valid depth. Around it
-the local ground is fitted (robust least squares), the object is stood on it and oriented,
-and the candidate must pass, in order: the ground fit, the footprint lying on allowed
-labels, the whole object being inside the image, no overlap with objects already placed,
-and the paper's two-stage intersection check against the scene's points - a lenient
-axis-aligned pre-filter over all points, then the strict oriented-box test on the suspects.
-Every rejection is counted by reason.
+For each object, candidates are drawn at random among ground-like pixels of an allowed
+surface (by label) with valid depth, weighted so distances spread over the allowed range.
+A candidate is oriented (along the local road direction, towards the camera, or at random),
+then must pass, cheapest first:
+
+1. a ground-like surface at the pixel (not a kerb face or a wall);
+2. on a provisional pose: the object in front of the camera and inside the image (or
+   truncated, if allowed), its footprint on seen, supported, allowed ground;
+3. a robust plane fit of the allowed ground around it (the object stands on that plane:
+   contact, pitch and roll follow it), rejected when too few points, a step, rough or steep;
+4. the same image tests on the final pose, and the visibility rules (visible pixels,
+   occluded share) estimated against the real depth;
+5. no overlap with objects already placed in the frame;
+6. no scene point inside its box: the pixel grid is the spatial index (every point inside
+   the box projects inside the box's image rectangle), then the strict oriented-box test.
+   :func:`prefilter` is the paper's lenient all-points pre-filter, kept for comparison.
+
+Every rejection is counted by reason and returned with the result.
 """
 from __future__ import annotations
 
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Sequence
 
+import cv2
 import numpy as np
 
 from .camera import Camera
-from .geometry import PointCloud
+from .geometry import Frame
 from .labels import label_id
 
 #: default allowed surfaces per Cityscapes class
@@ -27,14 +40,20 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
     "person": ("sidewalk",), "traffic sign": ("sidewalk",), "traffic light": ("sidewalk",),
     "pole": ("sidewalk",),
 }
+#: default orientation rule per class (others: along-road)
+ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
+ORIENTATIONS = ("along-road", "parked", "face-camera", "random")
+#: labels that border a road at ground level: their edge with the road is a kerb line
+GROUND_LEVEL = ("sidewalk", "parking", "rail track", "terrain", "ground")
 #: a footprint sample is on the real ground when |scene depth - its depth| <= REL * depth + ABS
 #: (a 15 cm kerb drop seen from 1.2 m moves the ground ~14% further away)
 SUPPORT_TOL_REL = 0.02
 SUPPORT_TOL_ABS = 0.05
 #: a ground point is on the fitted plane when within this height of it, metres
 INLIER_BAND = 0.04
-#: default orientation rule per class: along the road, facing the camera, or random
-ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
+#: a point of the object is hidden when the real depth is nearer by more than this
+OCCLUSION_TOL_REL = 0.01
+OCCLUSION_TOL_ABS = 0.05
 
 
 @dataclass(frozen=True)
@@ -52,6 +71,10 @@ class PlacementRules:
     max_ground_tilt_deg: float = 12.0
     min_ground_points: int = 30
     min_ground_inliers: float = 0.6  # share of the local ground points on the fitted plane
+    min_visible_pixels: int = 150
+    max_occluded_fraction: float = 0.7
+    allow_truncation: bool = False  # objects may be cut by the image border
+    parked_kerb_gap: float = 0.8  # parked: most distance from the kerb line to the car's side, metres
 
 
 @dataclass(frozen=True)
@@ -62,10 +85,13 @@ class Placement:
     extents: tuple[float, float, float]  # object length, width, height, metres
     vehicle_from_object: tuple[tuple[float, ...], ...]  # (4, 4), object frame O -> V
     yaw: float  # radians about V's z, 0 = facing +x (driving direction)
+    road_yaw: float | None  # local road direction estimated from the kerb lines, radians (mod pi)
     ground_normal: tuple[float, float, float]
     ground_rms: float  # metres
     distance: float  # ground distance from the camera, metres
     pixel: tuple[int, int]  # (row, column) of the chosen ground point
+    occluded_estimate: float  # share of the object hidden by the real scene (box samples)
+    truncated: bool  # the object crosses the image border
 
     @property
     def matrix(self) -> np.ndarray:
@@ -76,12 +102,9 @@ class Placement:
         """Ground contact point (centre of the footprint) in V."""
         return self.matrix[:3, 3]
 
-    def box_corners(self) -> np.ndarray:
-        """(8, 3) corners of the object's box in V."""
-        l, w, h = self.extents
-        local = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
-        m = self.matrix
-        return local @ m[:3, :3].T + m[:3, 3]
+    def box_corners(self, grow: float = 0.0) -> np.ndarray:
+        """(8, 3) corners of the object's box in V (grown by ``grow`` metres, not below z = 0)."""
+        return box_corners(self.matrix, self.extents, grow)
 
 
 @dataclass(frozen=True)
@@ -91,16 +114,12 @@ class PlacementResult:
     rejections: dict[str, int] = field(default_factory=dict)
 
 
-def _yaw_for(orientation: str, rng: np.random.Generator, jitter: float, point: np.ndarray,
-             camera: Camera) -> float:
-    if orientation == "random":
-        return float(rng.uniform(-math.pi, math.pi))
-    if orientation == "face-camera":
-        to_cam = camera.position[:2] - point[:2]
-        return math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter))
-    # along the road: the driving direction of the ego vehicle, either way
-    base = 0.0 if rng.random() < 0.5 else math.pi
-    return base + float(rng.uniform(-jitter, jitter))
+# ------------------------------------------------------------------------ geometry helpers
+def box_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
+    """(8, 3) vehicle-frame corners of an object's box, its sides pushed out by ``grow``."""
+    l, w, h = extents[0] / 2 + grow, extents[1] / 2 + grow, extents[2] + grow
+    local = np.array([[sx * l, sy * w, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, h)])
+    return local @ m[:3, :3].T + m[:3, 3]
 
 
 def fit_ground(points: np.ndarray, centre: np.ndarray | None = None, iterations: int = 4,
@@ -171,22 +190,34 @@ def pose_matrix(position: np.ndarray, normal: np.ndarray, yaw: float) -> np.ndar
 
 
 def prefilter(points: np.ndarray, m: np.ndarray, extents, clearance: float, margin: float) -> np.ndarray:
-    """Lenient pass over all (N, 3) points: indices inside the box's bounding axis-aligned box."""
+    """The paper's lenient pass over all (N, 3) points: indices of the points inside the
+    axis-aligned box that bounds the object's (rotated) box. Never misses a point inside."""
     l, w, h = extents
     r = math.hypot(l / 2 + margin, w / 2 + margin)
     c = m[:3, 3]
-    zlo, zhi = c[2] + min(clearance, 0.0) - 0.5, c[2] + h + margin + 0.5
+    zlo, zhi = c[2] + min(clearance, 0.0) - r * 0.25, c[2] + h + margin + r * 0.25
     sel = (np.abs(points[:, 0] - c[0]) <= r) & (np.abs(points[:, 1] - c[1]) <= r)
     sel &= (points[:, 2] >= zlo) & (points[:, 2] <= zhi)
     return np.flatnonzero(sel)
 
 
 def strict_inside(points: np.ndarray, m: np.ndarray, extents, clearance: float, margin: float) -> np.ndarray:
-    """Strict oriented-box test: bool mask of the (N, 3) points inside the object's box."""
+    """Strict oriented-box test: bool mask of the (N, 3) points inside the object's box
+    (grown by ``margin``, from ``clearance`` above its ground plane to the top)."""
     l, w, h = extents
     local = (points - m[:3, 3]) @ m[:3, :3]
     return ((np.abs(local[:, 0]) <= l / 2 + margin) & (np.abs(local[:, 1]) <= w / 2 + margin)
             & (local[:, 2] >= clearance) & (local[:, 2] <= h + margin))
+
+
+def penetration(points: np.ndarray, m: np.ndarray, extents, clearance: float) -> float:
+    """Deepest penetration of (N, 3) points into the box above ``clearance``: for each point
+    inside, its distance to the nearest face; the maximum, metres (0 when none is inside)."""
+    l, w, h = extents
+    local = (points - m[:3, 3]) @ m[:3, :3]
+    depth = np.minimum.reduce([l / 2 - np.abs(local[:, 0]), w / 2 - np.abs(local[:, 1]),
+                               local[:, 2] - clearance, h - local[:, 2]])
+    return float(max(depth.max(initial=0.0), 0.0))
 
 
 def footprint_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
@@ -208,51 +239,174 @@ def footprints_overlap(a: np.ndarray, b: np.ndarray) -> bool:
     return True
 
 
-def place_object(class_name: str, extents: tuple[float, float, float], cloud: PointCloud, depth: np.ndarray,
-                 label_ids: np.ndarray, camera: Camera, rng: np.random.Generator, rules: PlacementRules,
-                 allowed: tuple[str, ...] | None = None, orientation: str | None = None,
-                 others: tuple[Placement, ...] = ()) -> PlacementResult:
+# ------------------------------------------------------------------------- road direction
+@dataclass(frozen=True)
+class RoadLine:
+    """A kerb line near a candidate: direction angle in V (radians, in (-pi/2, pi/2]), the
+    candidate's signed lateral offset from it (metres) and its support (inlier points)."""
+
+    angle: float
+    offset: float
+    inliers: int
+    ambiguous: bool = False  # another strong kerb line crosses it (a junction)
+
+
+def road_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
+    """(N, 2) ground-plan points of the road's edges with ground-level neighbours (kerb lines)."""
+    lab = frame.label_ids
+    road = np.isin(lab, road_ids)
+    side = np.isin(lab, [label_id(n) for n in GROUND_LEVEL]) & ~road
+    edge = np.zeros_like(road)
+    for dr, dc in ((2, 0), (-2, 0), (0, 2), (0, -2)):
+        shifted = np.zeros_like(side)
+        rs = slice(max(dr, 0), lab.shape[0] + min(dr, 0))
+        rd = slice(max(-dr, 0), lab.shape[0] + min(-dr, 0))
+        cs = slice(max(dc, 0), lab.shape[1] + min(dc, 0))
+        cd = slice(max(-dc, 0), lab.shape[1] + min(-dc, 0))
+        shifted[rd, cd] = side[rs, cs]
+        edge |= road & shifted
+    edge &= np.isfinite(frame.depth)
+    v, u = np.nonzero(edge)
+    z = frame.depth[v, u].astype(np.float64)
+    cam = frame.camera
+    optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
+    m = cam.vehicle_from_optical
+    return (optical @ m[:3, :3].T + m[:3, 3])[:, :2]
+
+
+def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator, radius: float = 15.0,
+                  iterations: int = 80, band: float = 0.15) -> RoadLine | None:
+    """RANSAC line through the kerb points within ``radius`` of ``point`` (ground plan)."""
+    near = edges[np.hypot(edges[:, 0] - point[0], edges[:, 1] - point[1]) <= radius]
+    if len(near) < 20:
+        return None
+    best, best_score = None, 0
+    tried: list[tuple[float, float]] = []  # (angle, score) of every hypothesis
+    for _ in range(iterations):
+        i, j = rng.integers(len(near), size=2)
+        d = near[j] - near[i]
+        length = math.hypot(*d)
+        if length < 1.0:
+            continue
+        n = np.array([-d[1], d[0]]) / length
+        rel = near - near[i]
+        along = rel[np.abs(rel @ n) < band] @ (d / length)
+        # score by the length of line covered (0.5 m bins), not by the point count: seen
+        # from a car, ground far away is sampled densely across the view and sparsely along
+        # it, so counting points would favour any kerb that crosses the view
+        score = len(np.unique(np.floor(along / 0.5)))
+        # the same sampling makes kerbs across the view (the far side of a junction) look
+        # long: prefer lines along the view, as streets ahead mostly run
+        score *= 0.5 + 0.5 * (d[0] / length) ** 2
+        tried.append((math.atan2(d[1], d[0]), score))
+        if score > best_score:
+            best, best_score = (near[i], n), score
+    if best is None or best_score < 6:
+        return None
+    p0, n = best
+    inl = near[np.abs((near - p0) @ n) < band]
+    centre = inl.mean(axis=0)
+    _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
+    d = vt[0]
+    angle = math.atan2(d[1], d[0])
+    if angle <= -math.pi / 2:
+        angle += math.pi
+    elif angle > math.pi / 2:
+        angle -= math.pi
+    normal = np.array([-math.sin(angle), math.cos(angle)])
+    # a junction: a strong kerb line at a clearly different angle
+    rival = max((sc for a, sc in tried if abs(math.sin(a - angle)) > 0.5), default=0.0)
+    return RoadLine(angle, float((point[:2] - centre) @ normal), len(inl), rival > 0.7 * best_score)
+
+
+# ------------------------------------------------------------------------------- placing
+def _visibility(frame: Frame, m: np.ndarray, extents) -> tuple[float, float, float]:
+    """(share of box samples inside the image, share of those hidden by the real scene,
+    projected area of the box in pixels)."""
+    l, w, h = extents
+    g = np.stack(np.meshgrid(np.linspace(-0.5, 0.5, 7) * l, np.linspace(-0.5, 0.5, 5) * w,
+                             np.linspace(0.05, 1.0, 6) * h), -1).reshape(-1, 3)
+    opt = frame.to_optical(g @ m[:3, :3].T + m[:3, 3])
+    uv = frame.camera.project(opt)
+    H, W = frame.shape
+    inside = (uv[:, 0] >= 0) & (uv[:, 0] <= W - 1) & (uv[:, 1] >= 0) & (uv[:, 1] <= H - 1)
+    if not inside.any():
+        return 0.0, 1.0, 0.0
+    u, v, z = np.rint(uv[inside, 0]).astype(int), np.rint(uv[inside, 1]).astype(int), opt[inside, 2]
+    hidden = frame.depth[v, u] < z - (OCCLUSION_TOL_ABS + OCCLUSION_TOL_REL * z)
+    cuv = frame.camera.project(frame.to_optical(box_corners(m, extents)))
+    area = float(cv2.contourArea(cv2.convexHull(cuv.astype(np.float32))))
+    return float(inside.mean()), float(hidden.mean()), area
+
+
+class _Candidates:
+    """Allowed-surface pixels of one frame in the distance range, sampled with weight depth^2
+    (near ground covers far more pixels than far ground: this spreads distances evenly)."""
+
+    def __init__(self, frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> None:
+        cloud = frame.cloud
+        lo, hi = distance
+        on = np.isin(cloud.labels, allowed_ids)
+        self.allowed_mask = on
+        dist = frame.ground_distance
+        self.index = np.flatnonzero(on & (dist >= lo) & (dist <= hi))
+        self.cdf = np.cumsum(cloud.optical[self.index, 2].astype(np.float64) ** 2)
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def draw(self, rng: np.random.Generator) -> int:
+        return int(self.index[np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right")])
+
+
+def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
+                 rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
+                 others: Sequence[Placement] = ()) -> PlacementResult:
     """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not."""
-    allowed = allowed or ALLOWED_SURFACES.get(class_name, ("road",))
+    allowed = tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",)))
     orientation = orientation or ORIENTATION.get(class_name, "along-road")
+    if orientation not in ORIENTATIONS:
+        raise ValueError(f"unknown orientation {orientation!r}")
     allowed_ids = np.array([label_id(n) for n in allowed])
-    on_allowed = np.isin(cloud.labels, allowed_ids)
-    ground_dist = np.hypot(cloud.vehicle[:, 0] - camera.x, cloud.vehicle[:, 1] - camera.y)
-    lo, hi = rules.distance
-    candidates = np.flatnonzero(on_allowed & (ground_dist >= lo) & (ground_dist <= hi))
+    camera, depth, label_ids = frame.camera, frame.depth, frame.label_ids
     rejections: Counter[str] = Counter()
+    candidates = _Candidates(frame, allowed_ids, rules.distance)
+    lo, hi = rules.distance
     if len(candidates) == 0:
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
-    # near ground covers far more pixels than far ground: weight pixels by depth^2 so that
-    # distances come out roughly evenly spread over the allowed range
-    cdf = np.cumsum(cloud.optical[candidates, 2].astype(np.float64) ** 2)
-    allowed_pts = cloud.vehicle[on_allowed]
+    edges = None
+    if orientation in ("along-road", "parked"):
+        key = ("road_edges", tuple(allowed_ids))
+        if key not in frame.cache:
+            frame.cache[key] = road_edges(frame, allowed_ids)
+        edges = frame.cache[key]
     jitter = math.radians(rules.yaw_jitter_deg)
     min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
     l, w, h = extents
     reach = math.hypot(l, w) / 2 + 0.5
     other_prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
     H, W = label_ids.shape
-    opt_from_v = camera.optical_from_vehicle
     fm = rules.footprint_margin
     gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
     grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
 
-    corners = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
-
     def image_check(m: np.ndarray) -> str | None:
-        """Cheap tests in the image: whole object on screen, footprint on seen allowed ground."""
-        corners_o = corners @ (opt_from_v @ m)[:3, :3].T + (opt_from_v @ m)[:3, 3]
+        """Cheap tests in the image: object on screen, footprint on seen allowed ground."""
+        corners_o = frame.to_optical(box_corners(m, extents))
         if (corners_o[:, 2] <= 1.0).any():
             return "partly behind the camera"
         uv = camera.project(corners_o)
-        if (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any():
+        out = (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any()
+        if out and not rules.allow_truncation:
             return "not fully inside the image"
-        foot_o = grid @ (opt_from_v @ m)[:3, :3].T + (opt_from_v @ m)[:3, 3]
+        foot_o = frame.to_optical(grid @ m[:3, :3].T + m[:3, 3])
         fuv = np.rint(camera.project(foot_o)).astype(int)
-        fu, fv = np.clip(fuv[:, 0], 0, W - 1), np.clip(fuv[:, 1], 0, H - 1)
-        scene_d, foot_d = depth[fv, fu], foot_o[:, 2]
+        on_screen = (fuv[:, 0] >= 0) & (fuv[:, 0] < W) & (fuv[:, 1] >= 0) & (fuv[:, 1] < H)
+        if on_screen.mean() < 0.5:
+            return "footprint outside the image"
+        fu, fv, foot_d = fuv[on_screen, 0], fuv[on_screen, 1], foot_o[on_screen, 2]
+        scene_d = depth[fv, fu]
         tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
         seen = scene_d >= foot_d - tol  # not hidden behind something nearer
         if seen.sum() < 0.3 * len(seen):
@@ -266,23 +420,53 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
         return None
 
     for attempt in range(1, rules.max_attempts + 1):
-        idx = candidates[np.searchsorted(cdf, rng.random() * cdf[-1], side="right")]
-        point = cloud.vehicle[idx].astype(float)
+        idx = candidates.draw(rng)
+        point = frame.cloud.vehicle[idx].astype(float)
+        row, col = int(frame.cloud.pixels[idx, 0]), int(frame.cloud.pixels[idx, 1])
         # 1. the candidate pixel must be ground-like, not a kerb face or a wall
-        n_here = surface_normals(depth, camera, cloud.pixels[idx:idx + 1, 0], cloud.pixels[idx:idx + 1, 1])[0]
+        n_here = surface_normals(depth, camera, np.array([row]), np.array([col]))[0]
         if not n_here[2] >= min_up:  # NaN-safe
             rejections["candidate surface not horizontal"] += 1
             continue
-        yaw = _yaw_for(orientation, rng, jitter, point, camera)
+        # orientation
+        road_yaw = None
+        if orientation == "random":
+            yaw = float(rng.uniform(-math.pi, math.pi))
+        elif orientation == "face-camera":
+            to_cam = camera.position[:2] - point[:2]
+            yaw = math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter))
+        else:
+            line = fit_road_line(edges, point, rng) if len(edges) else None
+            if line is None:
+                if orientation == "parked":
+                    rejections["no kerb line nearby (parked)"] += 1
+                    continue
+                base = 0.0  # no kerb seen: the ego vehicle's heading
+            elif line.ambiguous:
+                rejections["road direction ambiguous (junction)"] += 1
+                continue
+            else:
+                base = road_yaw = line.angle
+                if orientation == "parked" and abs(line.offset) - w / 2 > rules.parked_kerb_gap:
+                    rejections["too far from the kerb (parked)"] += 1
+                    continue
+            yaw = base + (0.0 if rng.random() < 0.5 else math.pi) + float(rng.uniform(-jitter, jitter))
         # 2. cheap image-space tests on a provisional pose (the pixel's own normal)
         why = image_check(pose_matrix(point, n_here, yaw))
         if why:
             rejections[why] += 1
             continue
-        # 3. the local ground: robust plane through the allowed points around the candidate
-        near = allowed_pts[(np.abs(allowed_pts[:, 0] - point[0]) <= reach)
-                           & (np.abs(allowed_pts[:, 1] - point[1]) <= reach)]
-        fit = fit_ground(near.astype(float), point) if len(near) >= rules.min_ground_points else None
+        # 3. the local ground: robust plane through the allowed points around the candidate,
+        #    found through the pixel grid (the square around the point, projected)
+        square = point + np.array([[sx * reach, sy * reach, dz] for sx in (-1, 1) for sy in (-1, 1)
+                                   for dz in (-0.3, 0.3)])
+        rect = frame.box_rect(square)
+        near = np.empty((0, 3))
+        if rect is not None:
+            pts, labs = frame.rect_points(*rect)
+            near = pts[np.isin(labs, allowed_ids) & (np.abs(pts[:, 0] - point[0]) <= reach)
+                       & (np.abs(pts[:, 1] - point[1]) <= reach)]
+        fit = fit_ground(near, point) if len(near) >= rules.min_ground_points else None
         if fit is None:
             rejections["too few ground points"] += 1
             continue
@@ -303,26 +487,35 @@ def place_object(class_name: str, extents: tuple[float, float, float], cloud: Po
             continue
         position = np.array([point[0], point[1], ground_z])
         m = pose_matrix(position, normal, yaw)
-        why = image_check(m)  # again, on the final pose
+        # 4. the image tests again on the final pose, then the visibility rules
+        why = image_check(m)
         if why:
             rejections[why] += 1
             continue
-        # 4. other objects of this frame
+        in_image, hidden, area = _visibility(frame, m, extents)
+        if hidden > rules.max_occluded_fraction:
+            rejections["too much hidden by the scene"] += 1
+            continue
+        if area * in_image * (1.0 - hidden) < rules.min_visible_pixels:
+            rejections["too few visible pixels"] += 1
+            continue
+        # 5. other objects of this frame
         mine = footprint_corners(m, extents, rules.object_gap / 2)
         if any(footprints_overlap(mine, o) for o in other_prints):
             rejections["overlaps another inserted object"] += 1
             continue
-        # 5. scene points: lenient pre-filter, then strict test on the suspects
-        suspects = prefilter(cloud.vehicle, m, extents, rules.clearance, rules.margin)
-        inside = strict_inside(cloud.vehicle[suspects].astype(float), m, extents, rules.clearance, rules.margin)
-        if inside.sum() >= rules.min_collision_points:
+        # 6. scene points inside the box: the pixel grid as index, then the strict test
+        rect = frame.box_rect(box_corners(m, extents, rules.margin))
+        pts, _ = frame.rect_points(*rect) if rect else (np.empty((0, 3)), None)
+        if strict_inside(pts, m, extents, rules.clearance, rules.margin).sum() >= rules.min_collision_points:
             rejections["intersects the scene"] += 1
             continue
-        dist = float(math.hypot(position[0] - camera.x, position[1] - camera.y))
         placement = Placement(
             class_name=class_name, extents=tuple(float(e) for e in extents),
-            vehicle_from_object=tuple(tuple(float(v) for v in row) for row in m),
-            yaw=float(math.atan2(m[1, 0], m[0, 0])), ground_normal=tuple(float(v) for v in normal),
-            ground_rms=rms, distance=dist, pixel=(int(cloud.pixels[idx, 0]), int(cloud.pixels[idx, 1])))
+            vehicle_from_object=tuple(tuple(float(v) for v in r) for r in m),
+            yaw=float(math.atan2(m[1, 0], m[0, 0])), road_yaw=road_yaw,
+            ground_normal=tuple(float(v) for v in normal), ground_rms=rms,
+            distance=float(math.hypot(position[0] - camera.x, position[1] - camera.y)),
+            pixel=(row, col), occluded_estimate=hidden, truncated=in_image < 1.0)
         return PlacementResult(placement, attempt, dict(rejections))
     return PlacementResult(None, rules.max_attempts, dict(rejections))

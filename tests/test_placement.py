@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from synthcompose.geometry import disparity_to_depth, point_cloud
+from synthcompose.geometry import disparity_to_depth, make_frame
 from synthcompose.models import load_model
 from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, place_object, prefilter, strict_inside
 from synthcompose.sample import random_scene, render_scene
@@ -20,8 +20,7 @@ def frame(request):
     scene = random_scene(np.random.default_rng([11, request.param]), W, H)
     arrays = render_scene(scene)
     depth = disparity_to_depth(arrays["disparity"], scene.camera)
-    cloud = point_cloud(depth, arrays["label_ids"], scene.camera)
-    return scene, arrays, depth, cloud
+    return scene, arrays, make_frame(depth, arrays["label_ids"], scene.camera)
 
 
 def _inside_scene_solids(scene, pts: np.ndarray) -> np.ndarray:
@@ -37,13 +36,12 @@ def _inside_scene_solids(scene, pts: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("cls", ["car", "person", "traffic sign"])
 def test_placed_objects_stand_on_allowed_ground_and_hit_nothing(frame, cls):
-    scene, arrays, depth, cloud = frame
+    scene, arrays, fr = frame
     rng = np.random.default_rng(3)
     rules = PlacementRules()
     placed = []
     for _ in range(3):
-        res = place_object(cls, SIZES[cls], cloud, depth, arrays["label_ids"], scene.camera, rng, rules,
-                           others=tuple(placed))
+        res = place_object(fr, cls, SIZES[cls], rng, rules, others=placed)
         assert res.placement is not None, res.rejections
         p = res.placement
         placed.append(p)
@@ -75,9 +73,8 @@ def test_no_road_gives_no_valid_placement_not_a_crash():
     scene = random_scene(np.random.default_rng([11, 0]), W // 2, H // 2, road=False)
     arrays = render_scene(scene)
     depth = disparity_to_depth(arrays["disparity"], scene.camera)
-    cloud = point_cloud(depth, arrays["label_ids"], scene.camera)
-    res = place_object("car", SIZES["car"], cloud, depth, arrays["label_ids"], scene.camera,
-                       np.random.default_rng(0), PlacementRules())
+    fr = make_frame(depth, arrays["label_ids"], scene.camera)
+    res = place_object(fr, "car", SIZES["car"], np.random.default_rng(0), PlacementRules())
     assert res.placement is None
     assert any("no road pixel" in reason for reason in res.rejections)
 
@@ -97,7 +94,8 @@ def test_prefilter_keeps_every_point_the_strict_test_finds():
 
 
 def test_collision_with_a_parked_car_is_rejected(frame):
-    scene, arrays, depth, cloud = frame
+    scene, arrays, fr = frame
+    cloud = fr.cloud
     car = next(b for b in scene.boxes if b.label == "car")
     centre = (np.array(car.lo) + np.array(car.hi)) / 2
     from synthcompose.placement import pose_matrix
