@@ -36,6 +36,15 @@ def _make_sample(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_placement(args: argparse.Namespace) -> int:
+    from .check import check_output, format_table
+
+    results = check_output(Path(args.out))
+    print(format_table(results))
+    print(f"written: {Path(args.out) / 'placement_check.json'}")
+    return 1 if args.strict and any(r.failures for r in results) else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="synthcompose", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -52,6 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--size", default="2048x1024", help="WIDTHxHEIGHT")
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=_make_sample)
+    c = sub.add_parser("check-placement", help="measure the placements of a finished batch")
+    c.add_argument("out", help="output root of a batch")
+    c.add_argument("--strict", action="store_true", help="exit 1 when any object is outside the limits")
+    c.set_defaults(func=_check_placement)
     return parser
 
 

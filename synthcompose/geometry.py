@@ -99,12 +99,15 @@ class Frame:
         m = self.camera.optical_from_vehicle
         return np.asarray(points_v, float) @ m[:3, :3].T + m[:3, 3]
 
-    def rect_points(self, r0: int, r1: int, c0: int, c1: int) -> tuple[np.ndarray, np.ndarray]:
-        """Vehicle-frame points (N, 3) and labels (N,) of valid pixels in rows r0:r1, cols c0:c1."""
+    def rect_points(self, r0: int, r1: int, c0: int, c1: int,
+                    with_pixels: bool = False) -> tuple[np.ndarray, ...]:
+        """Vehicle-frame points (N, 3) and labels (N,) of valid pixels in rows r0:r1, cols c0:c1
+        (and their (rows, cols) when ``with_pixels``)."""
         H, W = self.depth.shape
         r0, r1, c0, c1 = max(r0, 0), min(r1, H), max(c0, 0), min(c1, W)
         if r1 <= r0 or c1 <= c0:
-            return np.empty((0, 3)), np.empty(0, np.uint8)
+            empty = np.empty(0, np.int64)
+            return (np.empty((0, 3)), np.empty(0, np.uint8)) + ((empty, empty) if with_pixels else ())
         sub = self.depth[r0:r1, c0:c1]
         v, u = np.nonzero(np.isfinite(sub))
         z = sub[v, u].astype(np.float64)
@@ -112,7 +115,8 @@ class Frame:
         cam = self.camera
         optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
         m = cam.vehicle_from_optical
-        return optical @ m[:3, :3].T + m[:3, 3], self.label_ids[v, u]
+        out = (optical @ m[:3, :3].T + m[:3, 3], self.label_ids[v, u])
+        return out + ((v, u) if with_pixels else ())
 
     def box_rect(self, corners_v: np.ndarray, pad: int = 1) -> tuple[int, int, int, int] | None:
         """Pixel rectangle (r0, r1, c0, c1) holding the projection of points in front of the camera."""

@@ -27,7 +27,7 @@ from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
-from .placement import Placement, place_object
+from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, place_object
 from .render import RenderObject, Renderer
 from .writer import write_outputs, write_record
 
@@ -191,7 +191,7 @@ class Pipeline:
             objects = []
             for rec in records:
                 spec, pl = rec["spec"], rec["result"].placement
-                allowed = [label_id(s) for s in (spec.allowed_surfaces or ("road", "sidewalk"))]
+                allowed = [label_id(s) for s in (spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))]
                 albedo = ground_albedo(image_set, depth, pl, allowed)
                 radius = max(pl.extents[0], pl.extents[1]) * 0.5 + 0.5 * pl.extents[2] + 0.5
                 objects.append(RenderObject(rec["model"], pl.matrix, albedo, radius))
@@ -216,6 +216,8 @@ class Pipeline:
                 bbox = [int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1] if len(xs) else None
                 record["objects"].append({
                     "index": k, "name": spec.name, "model": spec.model, "class": spec.class_name,
+                    "allowed_surfaces": list(spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",))),
+                    "orientation": spec.orientation or ORIENTATION.get(spec.class_name, "along-road"),
                     "label_id": label_id(spec.class_name), "instance_id": rec["instance_id"],
                     "extents_m": list(pl.extents),
                     "pose": {

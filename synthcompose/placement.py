@@ -43,8 +43,10 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
 #: default orientation rule per class (others: along-road)
 ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
 ORIENTATIONS = ("along-road", "parked", "face-camera", "random")
-#: labels that border a road at ground level: their edge with the road is a kerb line
-GROUND_LEVEL = ("sidewalk", "parking", "rail track", "terrain", "ground")
+#: ground-level labels: where an allowed surface meets another of these there is a kerb line
+GROUND_LEVEL = ("road", "sidewalk", "parking", "rail track", "terrain", "ground")
+#: the footprint must stay this far from a kerb line of its own surface, metres
+KERB_CLEARANCE = 0.2
 #: a footprint sample is on the real ground when |scene depth - its depth| <= REL * depth + ABS
 #: (a 15 cm kerb drop seen from 1.2 m moves the ground ~14% further away)
 SUPPORT_TOL_REL = 0.02
@@ -251,8 +253,16 @@ class RoadLine:
     ambiguous: bool = False  # another strong kerb line crosses it (a junction)
 
 
-def road_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
-    """(N, 2) ground-plan points of the road's edges with ground-level neighbours (kerb lines)."""
+def surface_edges(frame: Frame, surface_ids: np.ndarray) -> np.ndarray:
+    """(N, 2) ground-plan points (V) where a surface (e.g. road) meets another ground-level
+    surface (e.g. sidewalk): the kerb lines. Cached on the frame per surface."""
+    key = ("surface_edges", tuple(int(i) for i in surface_ids))
+    if key not in frame.cache:
+        frame.cache[key] = _surface_edges(frame, surface_ids)
+    return frame.cache[key]
+
+
+def _surface_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
     lab = frame.label_ids
     road = np.isin(lab, road_ids)
     side = np.isin(lab, [label_id(n) for n in GROUND_LEVEL]) & ~road
@@ -274,37 +284,48 @@ def road_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
     return (optical @ m[:3, :3].T + m[:3, 3])[:, :2]
 
 
-def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator, radius: float = 15.0,
-                  iterations: int = 80, band: float = 0.15) -> RoadLine | None:
-    """RANSAC line through the kerb points within ``radius`` of ``point`` (ground plan)."""
-    near = edges[np.hypot(edges[:, 0] - point[0], edges[:, 1] - point[1]) <= radius]
-    if len(near) < 20:
+def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, band: float,
+                 away_from: float | None = None) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """Best line through (N, 2) points: (a point on it, unit normal, score). ``away_from``: only
+    lines at more than 30 degrees from that angle."""
+    best, best_score = None, 0.0
+    if len(pts) < 2:
         return None
-    best, best_score = None, 0
-    tried: list[tuple[float, float]] = []  # (angle, score) of every hypothesis
     for _ in range(iterations):
-        i, j = rng.integers(len(near), size=2)
-        d = near[j] - near[i]
+        i, j = rng.integers(len(pts), size=2)
+        d = pts[j] - pts[i]
         length = math.hypot(*d)
         if length < 1.0:
             continue
-        n = np.array([-d[1], d[0]]) / length
-        rel = near - near[i]
-        along = rel[np.abs(rel @ n) < band] @ (d / length)
+        d = d / length
+        if away_from is not None and abs(d[0] * math.sin(away_from) - d[1] * math.cos(away_from)) < 0.5:
+            continue
+        n = np.array([-d[1], d[0]])
+        rel = pts - pts[i]
+        along = rel[np.abs(rel @ n) < band] @ d
         # score by the length of line covered (0.5 m bins), not by the point count: seen
         # from a car, ground far away is sampled densely across the view and sparsely along
-        # it, so counting points would favour any kerb that crosses the view
-        score = len(np.unique(np.floor(along / 0.5)))
-        # the same sampling makes kerbs across the view (the far side of a junction) look
-        # long: prefer lines along the view, as streets ahead mostly run
-        score *= 0.5 + 0.5 * (d[0] / length) ** 2
-        tried.append((math.atan2(d[1], d[0]), score))
+        # it, so counting points would favour any kerb that crosses the view; for the same
+        # reason prefer lines along the view, as streets ahead mostly run
+        score = len(np.unique(np.floor(along / 0.5))) * (0.5 + 0.5 * d[0] ** 2)
         if score > best_score:
-            best, best_score = (near[i], n), score
-    if best is None or best_score < 6:
+            best, best_score = (pts[i], n), score
+    return None if best is None else (best[0], best[1], best_score)
+
+
+def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator, radius: float = 15.0,
+                  iterations: int = 80, band: float = 0.15) -> RoadLine | None:
+    """RANSAC kerb line through the edge points within ``radius`` of ``point`` (ground plan);
+    flagged ambiguous where a second strong line crosses it (a junction)."""
+    near = edges[np.hypot(edges[:, 0] - point[0], edges[:, 1] - point[1]) <= radius]
+    if len(near) < 20:
         return None
-    p0, n = best
-    inl = near[np.abs((near - p0) @ n) < band]
+    found = _ransac_line(near, rng, iterations, band)
+    if found is None or found[2] < 6:
+        return None
+    p0, n, score = found
+    on_line = np.abs((near - p0) @ n) < band
+    inl = near[on_line]
     centre = inl.mean(axis=0)
     _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
     d = vt[0]
@@ -314,19 +335,38 @@ def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator
     elif angle > math.pi / 2:
         angle -= math.pi
     normal = np.array([-math.sin(angle), math.cos(angle)])
-    # a junction: a strong kerb line at a clearly different angle
-    rival = max((sc for a, sc in tried if abs(math.sin(a - angle)) > 0.5), default=0.0)
-    return RoadLine(angle, float((point[:2] - centre) @ normal), len(inl), rival > 0.7 * best_score)
+    rival = _ransac_line(near[~on_line], rng, iterations, band, away_from=angle)
+    ambiguous = rival is not None and rival[2] > 0.5 * score
+    return RoadLine(angle, float((point[:2] - centre) @ normal), len(inl), bool(ambiguous))
 
 
 # ------------------------------------------------------------------------------- placing
-def _visibility(frame: Frame, m: np.ndarray, extents) -> tuple[float, float, float]:
-    """(share of box samples inside the image, share of those hidden by the real scene,
-    projected area of the box in pixels)."""
+def rays_hit_box(origin: np.ndarray, targets: np.ndarray, m: np.ndarray, extents) -> np.ndarray:
+    """(N,) bool: the segment from ``origin`` to each of (N, 3) ``targets`` (V) passes
+    through the object box of pose ``m`` (slab test in the box frame)."""
+    l, w, h = extents
+    lo, hi = np.array([-l / 2, -w / 2, 0.0]), np.array([l / 2, w / 2, h])
+    o = (origin - m[:3, 3]) @ m[:3, :3]
+    d = (targets - m[:3, 3]) @ m[:3, :3] - o
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (lo - o) / d, (hi - o) / d
+    tmin = np.nanmax(np.minimum(t1, t2), axis=1)
+    tmax = np.nanmin(np.maximum(t1, t2), axis=1)
+    return (tmax >= np.maximum(tmin, 0.0)) & (tmin <= 1.0)
+
+
+def _box_samples(m: np.ndarray, extents) -> np.ndarray:
     l, w, h = extents
     g = np.stack(np.meshgrid(np.linspace(-0.5, 0.5, 7) * l, np.linspace(-0.5, 0.5, 5) * w,
                              np.linspace(0.05, 1.0, 6) * h), -1).reshape(-1, 3)
-    opt = frame.to_optical(g @ m[:3, :3].T + m[:3, 3])
+    return g @ m[:3, :3].T + m[:3, 3]
+
+
+def _visibility(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement] = ()) -> tuple[float, float, float]:
+    """(share of box samples inside the image, share of those hidden by the real scene or by
+    the ``others`` already placed, projected area of the box in pixels)."""
+    samples = _box_samples(m, extents)
+    opt = frame.to_optical(samples)
     uv = frame.camera.project(opt)
     H, W = frame.shape
     inside = (uv[:, 0] >= 0) & (uv[:, 0] <= W - 1) & (uv[:, 1] >= 0) & (uv[:, 1] <= H - 1)
@@ -334,9 +374,23 @@ def _visibility(frame: Frame, m: np.ndarray, extents) -> tuple[float, float, flo
         return 0.0, 1.0, 0.0
     u, v, z = np.rint(uv[inside, 0]).astype(int), np.rint(uv[inside, 1]).astype(int), opt[inside, 2]
     hidden = frame.depth[v, u] < z - (OCCLUSION_TOL_ABS + OCCLUSION_TOL_REL * z)
+    for o in others:
+        hidden |= rays_hit_box(frame.camera.position, samples[inside], o.matrix, o.extents)
     cuv = frame.camera.project(frame.to_optical(box_corners(m, extents)))
     area = float(cv2.contourArea(cv2.convexHull(cuv.astype(np.float32))))
     return float(inside.mean()), float(hidden.mean()), area
+
+
+def _hides_others(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement], rules: PlacementRules) -> bool:
+    """True when the new box would leave an earlier object more hidden than the rules allow."""
+    for i, o in enumerate(others):
+        rest = [p for j, p in enumerate(others) if j != i]
+        _, before, _ = _visibility(frame, o.matrix, o.extents, rest)
+        samples = _box_samples(o.matrix, o.extents)
+        newly = rays_hit_box(frame.camera.position, samples, m, extents).mean()
+        if min(1.0, before + newly) > rules.max_occluded_fraction:
+            return True
+    return False
 
 
 class _Candidates:
@@ -375,12 +429,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     if len(candidates) == 0:
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
-    edges = None
-    if orientation in ("along-road", "parked"):
-        key = ("road_edges", tuple(allowed_ids))
-        if key not in frame.cache:
-            frame.cache[key] = road_edges(frame, allowed_ids)
-        edges = frame.cache[key]
+    edges = surface_edges(frame, allowed_ids)
     jitter = math.radians(rules.yaw_jitter_deg)
     min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
     l, w, h = extents
@@ -408,15 +457,24 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         fu, fv, foot_d = fuv[on_screen, 0], fuv[on_screen, 1], foot_o[on_screen, 2]
         scene_d = depth[fv, fu]
         tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
-        seen = scene_d >= foot_d - tol  # not hidden behind something nearer
+        # seen: known depth (disparity holes say nothing) and not behind something nearer
+        seen = np.isfinite(scene_d) & (scene_d >= foot_d - tol)
         if seen.sum() < 0.3 * len(seen):
             return "footprint hidden"
         # a seen sample is supported when the real ground is there: allowed label, same
-        # depth, and a ground-like surface (not the face of a kerb)
+        # depth, and a ground-like surface (not the face of a kerb; unknown next to a hole)
         supported = np.isin(label_ids[fv, fu], allowed_ids) & (scene_d <= foot_d + tol)
-        supported &= surface_normals(depth, camera, fv, fu)[:, 2] >= min_up
+        up = surface_normals(depth, camera, fv, fu)[:, 2]
+        supported &= ~(up < min_up)  # NaN (a hole nearby) does not count against
         if supported[seen].mean() < rules.min_footprint_allowed:
             return "footprint off the allowed surface"
+        # no kerb line of the surface under the footprint (also where its face is unresolved)
+        c = m[:3, 3]
+        close = edges[(np.abs(edges[:, 0] - c[0]) <= reach + 1) & (np.abs(edges[:, 1] - c[1]) <= reach + 1)]
+        if len(close):
+            local = (close - c[:2]) @ m[:2, :2]
+            if ((np.abs(local[:, 0]) <= l / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= w / 2 + KERB_CLEARANCE)).any():
+                return "footprint crosses a kerb line"
         return None
 
     for attempt in range(1, rules.max_attempts + 1):
@@ -463,9 +521,12 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         rect = frame.box_rect(square)
         near = np.empty((0, 3))
         if rect is not None:
-            pts, labs = frame.rect_points(*rect)
-            near = pts[np.isin(labs, allowed_ids) & (np.abs(pts[:, 0] - point[0]) <= reach)
-                       & (np.abs(pts[:, 1] - point[1]) <= reach)]
+            pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True)
+            sel = np.flatnonzero(np.isin(labs, allowed_ids) & (np.abs(pts[:, 0] - point[0]) <= reach)
+                                 & (np.abs(pts[:, 1] - point[1]) <= reach))
+            # only ground-like surfaces: kerb faces and walls of an allowed label do not count
+            sel = sel[surface_normals(depth, camera, rr[sel], cc[sel])[:, 2] >= min_up]
+            near = pts[sel]
         fit = fit_ground(near, point) if len(near) >= rules.min_ground_points else None
         if fit is None:
             rejections["too few ground points"] += 1
@@ -492,12 +553,15 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         if why:
             rejections[why] += 1
             continue
-        in_image, hidden, area = _visibility(frame, m, extents)
+        in_image, hidden, area = _visibility(frame, m, extents, others)
         if hidden > rules.max_occluded_fraction:
             rejections["too much hidden by the scene"] += 1
             continue
         if area * in_image * (1.0 - hidden) < rules.min_visible_pixels:
             rejections["too few visible pixels"] += 1
+            continue
+        if others and _hides_others(frame, m, extents, others, rules):
+            rejections["would hide an object placed before"] += 1
             continue
         # 5. other objects of this frame
         mine = footprint_corners(m, extents, rules.object_gap / 2)
