@@ -42,5 +42,6 @@ test: system venv ## run the test suite
 clean: ## remove generated outputs (keeps the virtualenv)
 	rm -rf out $(SAMPLE)
 
-bench: system venv ## measure per-stage time at 2048x1024 against the PNG codec floor
+bench: system venv ## per-stage time at 2048x1024 vs the PNG codec floor; collision-test costs
 	$(PY) benchmarks/bench_pipeline.py
+	$(PY) benchmarks/bench_collision.py

@@ -114,6 +114,7 @@ class ImageSet:
     instance_ids: np.ndarray
     disparity: np.ndarray
     camera: Camera
+    labelled: bool = True  # False: no gtFine files, or labels that mark nothing (test split)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -127,13 +128,20 @@ def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
     rgb = read_png(rgb_path, "rgb8")
     h, w = rgb.shape[:2]
     label_path = ident.path(root, "labelIds")
-    labels = read_png(label_path, "gray8")
     inst_path = ident.path(root, "instanceIds")
-    instances = read_png(inst_path, "gray16")
+    labelled = label_path.exists() or inst_path.exists()
+    if labelled:  # both must be there; a set without any gtFine file is unlabelled
+        labels = read_png(label_path, "gray8")
+        instances = read_png(inst_path, "gray16")
+    else:
+        labels, instances = np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint16)
     disp_path = ident.path(root, "disparity")
     disparity = read_png(disp_path, "gray16")
     for path, img in ((label_path, labels), (inst_path, instances), (disp_path, disparity)):
         if img.shape[:2] != (h, w):
             raise InputError(path, f"image is {img.shape[1]}x{img.shape[0]} but {rgb_path.name} is {w}x{h}")
     camera = Camera.read(ident.path(root, "camera"), w, h)
-    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera)
+    # Cityscapes' test split ships placeholder labels: nothing but ids 0-3 (unlabeled, ego
+    # vehicle, rectification border, out of roi)
+    labelled = labelled and bool((labels > 3).any())
+    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled)

@@ -135,3 +135,51 @@ class Frame:
 
 def make_frame(depth: np.ndarray, label_ids: np.ndarray, camera: Camera, labelled: bool = True) -> Frame:
     return Frame(camera, depth, label_ids, point_cloud(depth, label_ids, camera), labelled)
+
+
+def ground_labels_from_depth(depth: np.ndarray, camera: Camera, rng: np.random.Generator,
+                             band: float = 0.08, road_id: int = 7) -> tuple[np.ndarray, np.ndarray | None]:
+    """Drivable ground of a frame without labels, from its geometry alone.
+
+    RANSAC finds the dominant near-level plane among the points of the lower image half
+    (the road the car drives on); every pixel whose point lies within ``band`` metres of it
+    is labelled ``road_id``, everything else 0. Returns (labels (H, W) uint8, plane
+    (a, b, c) with z = a x + b y + c in V, or None when no plane was found).
+    """
+    H, W = depth.shape
+    labels = np.zeros((H, W), np.uint8)
+    rows0 = int(max(camera.v0, 0))
+    sub = depth[rows0:]
+    v, u = np.nonzero(np.isfinite(sub))
+    if len(v) < 100:
+        return labels, None
+    pick = rng.choice(len(v), size=min(20000, len(v)), replace=False)
+    v, u = v[pick] + rows0, u[pick]
+    z = depth[v, u].astype(np.float64)
+    opt = np.column_stack([(u - camera.u0) * z / camera.fx, (v - camera.v0) * z / camera.fy, z])
+    m = camera.vehicle_from_optical
+    pts = opt @ m[:3, :3].T + m[:3, 3]
+    best, best_count = None, 0
+    for _ in range(200):
+        a, b, c = pts[rng.choice(len(pts), 3, replace=False)]
+        n = np.cross(b - a, c - a)
+        norm = np.linalg.norm(n)
+        if norm < 1e-9 or abs(n[2]) / norm < np.cos(np.radians(15)):
+            continue
+        n = n / norm
+        count = int((np.abs((pts - a) @ n) < band).sum())
+        if count > best_count:
+            best, best_count = (a, n), count
+    if best is None:
+        return labels, None
+    a, n = best
+    inl = pts[np.abs((pts - a) @ n) < band]
+    A = np.column_stack([inl[:, 0], inl[:, 1], np.ones(len(inl))])
+    coef, *_ = np.linalg.lstsq(A, inl[:, 2], rcond=None)
+    vv, uu = np.nonzero(np.isfinite(depth))
+    zz = depth[vv, uu].astype(np.float64)
+    all_pts = np.column_stack([(uu - camera.u0) * zz / camera.fx, (vv - camera.v0) * zz / camera.fy, zz]) @ m[:3, :3].T + m[:3, 3]
+    height = all_pts[:, 2] - (coef[0] * all_pts[:, 0] + coef[1] * all_pts[:, 1] + coef[2])
+    on = np.abs(height) < band
+    labels[vv[on], uu[on]] = road_id
+    return labels, coef

@@ -35,6 +35,7 @@ SCHEMA: dict[str, Any] = {
         "limit": {"type": "integer", "minimum": 1},
         "seed": {"type": "integer", "minimum": 0},
         "objects_per_image": {"type": "integer", "minimum": 1, "maximum": 15},
+        "object_choice": {"enum": ["weights", "balance"]},
         "objects": {
             "type": "array", "minItems": 1,
             "items": {
@@ -105,6 +106,7 @@ class Manifest:
     limit: int | None
     seed: int
     objects_per_image: int
+    object_choice: str  # "weights" or "balance" (towards classes rare in the dataset)
     objects: tuple[ObjectSpec, ...]
     rules: PlacementRules
     lighting: Lighting
@@ -157,7 +159,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         cities=tuple(data["cities"]) if "cities" in data else None,
         frames=tuple(data["frames"]) if "frames" in data else None,
         limit=data.get("limit"), seed=int(data.get("seed", 0)),
-        objects_per_image=int(data.get("objects_per_image", 1)), objects=tuple(objects),
+        objects_per_image=int(data.get("objects_per_image", 1)),
+        object_choice=data.get("object_choice", "weights"), objects=tuple(objects),
         rules=rules, lighting=lighting, raw=data)
 
 

@@ -20,9 +20,10 @@ import numpy as np
 
 from . import __version__
 from .compose import Composer, SceneLayers
-from .dataset import ImageSet, ImageSetId, find_image_sets, read_image_set
+from .dataset import ImageSetId, find_image_sets, read_image_set
 from .errors import InputError, SynthComposeError
-from .geometry import disparity_to_depth, make_frame
+from .frequency import count_classes, object_weights
+from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .manifest import Manifest, ObjectSpec
@@ -71,9 +72,9 @@ def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
-def ground_albedo(image_set: ImageSet, depth: np.ndarray, placement: Placement, allowed: list[int]) -> tuple:
-    """Mean linear colour of the real ground seen under and around the object's footprint."""
-    cam = image_set.camera
+def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: list[int]) -> tuple:
+    """Median linear colour of the real ground seen under and around the object's footprint."""
+    cam, depth = frame.camera, frame.depth
     l, w, _ = placement.extents
     gx, gy = np.meshgrid(np.linspace(-1.0, 1.0, 15), np.linspace(-1.0, 1.0, 9))
     local = np.column_stack([gx.ravel() * l, gy.ravel() * w, np.zeros(gx.size)])
@@ -83,11 +84,11 @@ def ground_albedo(image_set: ImageSet, depth: np.ndarray, placement: Placement, 
     H, W = depth.shape
     ok = (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
     u, v, z = uv[ok, 0], uv[ok, 1], pts[ok, 2]
-    ok2 = np.isin(image_set.label_ids[v, u], allowed) & (depth[v, u] >= z * 0.97 - 0.1)
+    ok2 = np.isin(frame.label_ids[v, u], allowed) & (depth[v, u] >= z * 0.97 - 0.1)
     if ok2.sum() == 0:
         return (0.15, 0.15, 0.15)
-    rgb = _srgb_to_linear(image_set.rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
-    return tuple(float(c) for c in np.median(rgb, axis=0))
+    lin = _srgb_to_linear(rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
+    return tuple(float(c) for c in np.median(lin, axis=0))
 
 
 @contextmanager
@@ -111,8 +112,8 @@ class Pipeline:
         self.gl = GLContext(gl_backend)
         self.renderer = Renderer(self.gl)
         self.composer = Composer(self.gl)
-        self._weights = np.array([o.weight for o in manifest.objects], float)
-        self._weights /= self._weights.sum()
+        self.class_counts: dict[str, int] | None = None
+        self._weights = object_weights([o.weight for o in manifest.objects], [], "weights")
 
     def close(self) -> None:
         self.gl.release()
@@ -124,9 +125,18 @@ class Pipeline:
         self.close()
 
     def image_sets(self) -> list[ImageSetId]:
+        """The image sets the manifest selects; in "balance" mode also counts the dataset's
+        classes (over all selected sets, so every worker and every run agrees)."""
         m = self.manifest
         ids = find_image_sets(m.dataset, m.splits, m.cities, m.frames)
-        return ids[: m.limit] if m.limit else ids
+        ids = ids[: m.limit] if m.limit else ids
+        if m.object_choice == "balance" and self.class_counts is None:
+            self.class_counts = count_classes(m.dataset, ids)
+            self._weights = object_weights([o.weight for o in m.objects], [o.class_name for o in m.objects],
+                                           "balance", self.class_counts)
+            log.info("class counts %s -> object probabilities %s", self.class_counts,
+                     {o.name: round(float(p), 3) for o, p in zip(m.objects, self._weights)})
+        return ids
 
     def process(self, ident: ImageSetId) -> Outcome:
         """Run every stage for one image set; never raises for bad input (returns ``failed``)."""
@@ -147,8 +157,13 @@ class Pipeline:
         with _timed(timings, "geometry"):
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)
-            frame = make_frame(depth, image_set.label_ids, cam)
-        rng = image_set_rng(m.seed, ident)
+            rng = image_set_rng(m.seed, ident)
+            ground_plane = None
+            if image_set.labelled:
+                frame = make_frame(depth, image_set.label_ids, cam)
+            else:  # no labels (test split): the drivable ground from the geometry alone
+                pseudo, ground_plane = ground_labels_from_depth(depth, cam, rng)
+                frame = make_frame(depth, pseudo, cam, labelled=False)
         placed: list[tuple[ObjectSpec, Placement, int]] = []
         records, failures = [], []
         taken: set[int] = set()
@@ -173,6 +188,9 @@ class Pipeline:
             "seed": m.seed,
             "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
                                                                    "camera")},
+            "labels": "gtFine" if image_set.labelled else {
+                "source": "none: road found from the disparity alone",
+                "ground_plane_z_axb": None if ground_plane is None else [round(float(v), 5) for v in ground_plane]},
             "lighting": m.lighting.to_dict(),
             "objects": [],
             "not_placed": failures,
@@ -192,7 +210,7 @@ class Pipeline:
             for rec in records:
                 spec, pl = rec["spec"], rec["result"].placement
                 allowed = [label_id(s) for s in (spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))]
-                albedo = ground_albedo(image_set, depth, pl, allowed)
+                albedo = ground_albedo(image_set.rgb, frame, pl, allowed)
                 radius = max(pl.extents[0], pl.extents[1]) * 0.5 + 0.5 * pl.extents[2] + 0.5
                 objects.append(RenderObject(rec["model"], pl.matrix, albedo, radius))
                 rec["plane_albedo"] = albedo
@@ -248,6 +266,7 @@ class Pipeline:
 class Summary:
     outcomes: list[Outcome] = field(default_factory=list)
     wall_s: float = 0.0
+    class_counts: dict[str, int] | None = None  # "balance" mode: the dataset's objects per class
 
     def count(self, status: str) -> int:
         return sum(o.status == status for o in self.outcomes)
@@ -267,7 +286,7 @@ class Summary:
             "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
             "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
                          for o in self.outcomes if o.status != "done"],
-        }
+        } | ({"class_counts": self.class_counts} if self.class_counts is not None else {})
 
     def text(self) -> str:
         lines = [f"{self.count('done')} done, {self.count('skipped')} skipped, {self.count('failed')} failed "
@@ -291,6 +310,7 @@ def run_batch(manifest: Manifest, progress: bool | None = None, gl_backend: str 
     summary = Summary()
     with Pipeline(manifest, gl_backend) as pipe:
         ids = pipe.image_sets()
+        summary.class_counts = pipe.class_counts
         log.info("%d image sets from %s -> %s (GL: %s)", len(ids), manifest.dataset, manifest.output,
                  pipe.gl.renderer_name)
         show_bar = sys.stderr.isatty() if progress is None else progress
