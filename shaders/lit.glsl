@@ -108,7 +108,7 @@ void main() {
     vec3 diffuse = albedo * (1.0 - metallic) * (ambient + u_sun_rgb * ndl * sun_vis);
     // glossy part: Schlick Fresnel, sky/ground reflection and a Blinn-Phong sun highlight
     vec3 f0 = mix(vec3(0.04), albedo, metallic);
-    float ndv = max(dot(n, v), 0.0);
+    float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
     vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - ndv, 5.0);
     vec3 r = reflect(-v, n);
     vec3 env = mix(u_ground_rgb, u_sky_rgb, smoothstep(-0.2, 0.2, r.z));

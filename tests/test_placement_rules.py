@@ -1,0 +1,159 @@
+"""Placement rules end to end: occlusion by the real scene, visibility rules, unlabelled
+frames, class balancing, disparity holes and the check-placement report."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from synthcompose.cli import main
+from synthcompose.compose import Composer, SceneLayers
+from synthcompose.frequency import count_classes, object_weights
+from synthcompose.geometry import disparity_to_depth, ground_labels_from_depth, make_frame
+from synthcompose.labels import label_id
+from synthcompose.models import load_model
+from synthcompose.placement import PlacementRules, place_object, pose_matrix
+from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.sample import make_sample, random_scene, render_scene
+
+from .test_batch import H, W, write_manifest
+from .test_placement import SIZES
+
+POLE, CAR, ROAD = label_id("pole"), label_id("car"), label_id("road")
+
+
+def test_real_pole_in_front_hides_the_inserted_car(gl_clean):
+    scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
+    arrays = render_scene(scene)
+    cam = scene.camera
+    depth = disparity_to_depth(arrays["disparity"], cam)
+    # a pole with road visible behind it: put a car on that road, across the line of sight
+    for pole in scene.poles:
+        ray = np.array([pole.x - cam.x, pole.y - cam.y])
+        dist = np.hypot(*ray)
+        behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
+        if bool(scene.is_road(behind[0], behind[1])):
+            break
+    else:
+        pytest.skip("no pole in front of the road in this scene")
+    z = float(scene.ground_height(behind[0], behind[1]))
+    m = pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]), math.atan2(ray[1], ray[0]) + math.pi / 2)
+    model = load_model("builtin:box", (("length", 1.6),))
+    renderer, composer = Renderer(gl_clean), Composer(gl_clean)
+    passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2), 2.0)], Lighting.daylight(), photo=arrays["rgb"])
+    ids, id_depth = passes.read("id"), passes.read("id_depth")
+    rows, cols = passes.roi.slices
+    scene_layers = SceneLayers(arrays["rgb"], arrays["label_ids"], arrays["instance_ids"].astype(np.int32),
+                               arrays["disparity"], depth, cam.baseline * cam.fx * 256)
+    out = composer.compose(passes, scene_layers, [CAR], [CAR * 1000 + 99])
+    renderer.release(passes)
+    obj = ids > 0
+    real_d = depth[rows, cols]
+    in_front = obj & (real_d < id_depth - 0.5)  # the real scene is clearly nearer
+    behind_ = obj & (real_d > id_depth + 0.5)
+    assert (arrays["label_ids"][rows, cols][in_front] == POLE).sum() > 5, "the pole should cover part of the car"
+    assert (out.label_ids[rows, cols][in_front] == arrays["label_ids"][rows, cols][in_front]).all()
+    assert (out.rgb[rows, cols][in_front] == arrays["rgb"][rows, cols][in_front]).all()
+    assert (out.label_ids[rows, cols][behind_] == CAR).all()
+
+
+@pytest.fixture(scope="module")
+def holes_frame():
+    scene = random_scene(np.random.default_rng([11, 1]), 1024, 512)
+    arrays = render_scene(scene)
+    disp = arrays["disparity"].copy()
+    disp[np.random.default_rng(0).random(disp.shape) < 0.15] = 0  # 15% holes, as on real stereo
+    return scene, make_frame(disparity_to_depth(disp, scene.camera), arrays["label_ids"], scene.camera)
+
+
+def test_placement_with_many_disparity_holes(holes_frame):
+    scene, frame = holes_frame
+    rng = np.random.default_rng(1)
+    for cls in ("car", "person"):
+        res = place_object(frame, cls, SIZES[cls], rng, PlacementRules())
+        assert res.placement is not None, res.rejections
+        x, y, z = res.placement.position
+        assert abs(z - float(scene.ground_height(x, y))) <= 0.05
+
+
+def test_visibility_rules_are_enforced(holes_frame):
+    scene, frame = holes_frame
+    strict = PlacementRules(max_occluded_fraction=0.0, min_visible_pixels=4000)
+    for seed in range(3):
+        res = place_object(frame, "car", SIZES["car"], np.random.default_rng(seed), strict)
+        if res.placement is None:
+            assert res.rejections
+            continue
+        assert res.placement.occluded_estimate == 0.0
+        assert not res.placement.truncated
+
+
+def test_truncation_allowed_lets_objects_cross_the_border(holes_frame):
+    scene, frame = holes_frame
+    rules = PlacementRules(allow_truncation=True, distance=(4.0, 12.0), max_attempts=400)
+    truncated = [place_object(frame, "car", SIZES["car"], np.random.default_rng(s), rules).placement
+                 for s in range(8)]
+    assert any(p is not None and p.truncated for p in truncated)
+
+
+def test_unlabelled_frame_finds_the_road_from_disparity():
+    scene = random_scene(np.random.default_rng([11, 2]), 1024, 512)
+    arrays = render_scene(scene)
+    depth = disparity_to_depth(arrays["disparity"], scene.camera)
+    labels, plane = ground_labels_from_depth(depth, scene.camera, np.random.default_rng(0))
+    assert plane is not None and abs(plane[2]) < 0.05
+    road = labels == ROAD
+    true_road = arrays["label_ids"] == ROAD
+    assert (true_road[road]).mean() > 0.9  # what it calls road is road
+    assert road[true_road].mean() > 0.7  # and it finds most of it
+
+
+def test_unlabelled_image_sets_in_a_batch(tmp_path):
+    root = tmp_path / "cs"
+    ids = make_sample(root, count=2, width=W, height=H, seed=4)
+    for kind in ("labelIds", "instanceIds", "color"):
+        ids[0].path(root, kind).unlink()  # like the test split without gtFine
+    placeholder = ids[1].path(root, "labelIds")
+    import cv2
+
+    cv2.imwrite(str(placeholder), np.zeros((H, W), np.uint8))  # placeholder labels: nothing marked
+    out = tmp_path / "out"
+    manifest = write_manifest(tmp_path / "m.json", root, out, objects=[
+        {"model": "builtin:box", "class": "car", "size": {"length": 4.0}}])
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    for ident in ids:
+        record = json.loads(ident.path(out, "record").read_text())
+        assert record["status"] == "done", record
+        assert record["labels"]["source"].startswith("none")
+        obj = record["objects"][0]
+        m = np.array(obj["pose"]["vehicle"]["matrix"])
+        assert abs(m[2, 3]) < 0.05  # on the road plane z = 0
+    labels = cv2.imread(str(ids[0].path(out, "labelIds")), cv2.IMREAD_UNCHANGED)
+    assert set(np.unique(labels)) <= {0, CAR}
+
+
+def test_balance_favours_classes_the_dataset_lacks(tmp_path):
+    root = tmp_path / "cs"
+    ids = make_sample(root, count=2, width=320, height=160, seed=3)
+    counts = count_classes(root, ids)
+    assert counts.get("car", 0) >= 2 and counts.get("truck", 0) == 0
+    p = object_weights([1.0, 1.0], ["car", "truck"], "balance", counts)
+    assert p[1] > p[0] * 2
+    assert np.allclose(object_weights([1.0, 3.0], ["car", "truck"], "weights"), [0.25, 0.75])
+
+
+def test_check_placement_reports_every_object_within_limits(tmp_path, capsys):
+    root = tmp_path / "cs"
+    make_sample(root, count=2, width=W, height=H, seed=8)
+    out = tmp_path / "out"
+    main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--no-progress"])
+    capsys.readouterr()
+    assert main(["check-placement", str(out), "--strict"]) == 0
+    report = json.loads((out / "placement_check.json").read_text())
+    assert report["objects"] and all(not o["failures"] for o in report["objects"])
+    cars = [o for o in report["objects"] if o["name"] == "car"]
+    assert cars and all(o["yaw_to_road_deg"] is not None and o["yaw_to_road_deg"] <= 10 for o in cars)
+    assert "objects checked" in capsys.readouterr().out
