@@ -53,7 +53,7 @@ class Composer:
     """Runs the compose shader with the shared :class:`GLContext`."""
 
     def __init__(self, gl: GLContext) -> None:
-        self.gl = gl
+        self.gl = gl.activate()
         self.prog = gl.program("compose")
         self.vao = gl.own(gl.ctx.vertex_array(self.prog, []))
         mask = np.zeros(8, np.uint32)
@@ -68,7 +68,7 @@ class Composer:
         """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity."""
         if len(classes) > MAX_OBJECTS:
             raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
-        gl, ctx = self.gl, self.gl.ctx
+        gl, ctx = self.gl.activate(), self.gl.ctx
         roi = passes.roi
         rows, cols = roi.slices
         size = (roi.width, roi.height)

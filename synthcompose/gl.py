@@ -57,6 +57,13 @@ class GLContext:
         # bound before a framebuffer is released, so no deleted framebuffer stays current
         self._idle_fbo = self.own(self.ctx.framebuffer([self.own(self.ctx.renderbuffer((1, 1)))]))
 
+    def activate(self) -> "GLContext":
+        """Make this context current. Every entry point that does GL work calls this first, so
+        several contexts can live in one process (another one may have been made current
+        since). Deliberately not a ``with`` block: objects are read after the work ends."""
+        self.ctx.__enter__()
+        return self
+
     @property
     def renderer_name(self) -> str:
         return f"{self.ctx.info['GL_RENDERER']} / {self.ctx.info['GL_VERSION']}"
@@ -118,6 +125,7 @@ class GLContext:
             raise RuntimeError(f"OpenGL error: {err}")
 
     def release(self) -> None:
+        self.activate()
         for obj in reversed(self._owned):
             obj.release()
         self._owned.clear()

@@ -93,9 +93,11 @@ class RenderPasses:
     roi: Roi
     camera: Camera  # cropped to the ROI
     textures: dict[str, moderngl.Texture] = field(repr=False)
+    gl: GLContext = field(repr=False)
 
     def read(self, name: str) -> np.ndarray:
         """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id``."""
+        self.gl.activate()
         tex = self.textures[name]
         dtype = np.uint32 if tex.dtype == "u4" else np.float32
         arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
@@ -185,10 +187,13 @@ class Renderer:
     """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
 
     def __init__(self, gl: GLContext, shadow_size: int = 1024) -> None:
-        self.gl = gl
+        self.gl = gl.activate()
         ctx = gl.ctx
         self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth")}
         self._models: dict[str, _GpuModel] = {}
+        # bound to sampler units that have nothing to show: every active sampler of a draw
+        # must see a texture of its own kind (another pass may have left an integer one)
+        self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
         self.shadow_maps = []
         for _ in range(2):  # sun map, top-down sky-occlusion map
             tex = gl.own(ctx.depth_texture((shadow_size, shadow_size)))
@@ -250,7 +255,7 @@ class Renderer:
         roi = roi or roi_for(camera, objects)
         if roi is None:
             return None
-        gl, ctx = self.gl, self.gl.ctx
+        gl, ctx = self.gl.activate(), self.gl.ctx
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
         tex: dict[str, moderngl.Texture] = {}
@@ -290,8 +295,8 @@ class Renderer:
         prog["u_plane_from_photo"].value = photo is not None
         self.shadow_maps[0][0].use(1)
         self.shadow_maps[1][0].use(2)
-        if photo is not None:
-            tex["photo"].use(3)
+        (tex["photo"] if photo is not None else self._blank).use(3)
+        self._blank.use(0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
@@ -339,8 +344,9 @@ class Renderer:
                 vaos["id"].render(moderngl.TRIANGLES)
         for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
             gl.free(obj)
-        return RenderPasses(roi, cam, tex)
+        return RenderPasses(roi, cam, tex, gl)
 
     def release(self, passes: RenderPasses) -> None:
+        self.gl.activate()
         for t in passes.textures.values():
             self.gl.free(t)

@@ -16,8 +16,10 @@ def gl():
 @pytest.fixture
 def gl_clean(gl):
     """The session context; fails the test if it leaves a GL error behind."""
+    gl.activate()  # a batch run by an earlier test made its own context current
     gl.ctx.error  # reset
     yield gl
+    gl.activate()
     assert gl.ctx.error == "GL_NO_ERROR"
 
 

@@ -26,7 +26,7 @@ def _passes(gl, irpv, ir, alpha, obj_id, plane_cov=1.0):
         "id_depth": gl.texture(size, 1, np.full((H, W), OBJ_DEPTH, np.float32), dtype="f4"),
     }
     cam = Camera(500, 500, W / 2, H / 2, 0.2, 0, 0, 1.2, 0, 0, 0, W, H)
-    return RenderPasses(Roi(0, 0, W, H), cam, tex)
+    return RenderPasses(Roi(0, 0, W, H), cam, tex, gl)
 
 
 def _scene(rng, depth):
