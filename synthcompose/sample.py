@@ -5,29 +5,45 @@ one ray per pixel centre, in vectorised NumPy. The result is written in the exac
 layout (see :mod:`synthcompose.dataset`), so the demo and the tests can run on data whose
 depth, labels and instances are known exactly.
 
-Scene, in the vehicle frame V (ISO 8855: x forward, y left, z up; metres; road surface z = 0)::
+Frames. The scene is laid out in a *street frame* T (metres): ``a`` along the street (away
+from the camera), ``b`` across it (to the left), ``z`` up and equal to the vehicle frame's z.
+T is the vehicle frame V (ISO 8855: x forward, y left, z up) turned by ``street_heading`` about
+z and shifted by ``street_origin``: ``(x, y) = street_origin + Rz(street_heading) (a, b)``.
+By default T = V (heading 0, origin 0): the street runs along x. Cross-section, in T::
 
-        building row        | sidewalk |   road (|y| <= w)   | sidewalk |   building row
-    y = w + s + ...   w + s |  z = k   | w                -w |  z = k   | -w - s
+        building row        | sidewalk |   road (|b| <= w)   | sidewalk |   building row
+    b = w + s + ...   w + s |  kerb k  | w                -w |  kerb k  | -w - s
                             ^ kerb face (label sidewalk), height k
 
-* road: plane z = 0 for ``|y| <= road_half_width`` and over a cross street spanning
-  ``crossing = (x0, x1)``; dashed centre line, solid parking-lane lines, a stop line.
-* sidewalks: plane z = ``kerb_height`` elsewhere; their vertical kerb faces are sidewalk too.
-* buildings: rows of boxes from ``|y| = road_half_width + sidewalk_width`` outwards, broken by
-  the cross street; optionally a row across the far end of the street.
-* parked cars (instances 26000 + k), poles (label id 17, no instances), pedestrians
-  (instances 24000 + k) as boxes and vertical cylinders.
+Ground height (exact, piecewise planar), with grade ``slope``, cross-fall ``camber`` and the
+centre-line height ``crown_z`` at a = 0::
+
+    road (|b| <= w)           z = crown_z + slope * a - camber * |b|
+    cross street, |b| > w     z = crown_z + slope * a - camber * w      (the road edge height)
+    sidewalk (elsewhere)      z = crown_z + slope * a - camber * w + k  (flat across)
+
+* road: ``|b| <= road_half_width`` and the cross street spanning ``crossing = (a0, a1)`` (every
+  b); dashed centre line, solid parking-lane lines, a stop line, all in T.
+* sidewalks: everything else; their vertical kerb faces (b = +-w, and a = a1 at the far side
+  of the cross street) are sidewalk too.
+* buildings: rows of vertical boxes from ``|b| = road_half_width + sidewalk_width`` outwards,
+  broken by the cross street; optionally a row across the far end of the street. On a graded
+  street their bases sink to the lowest ground under them (the ground hides the rest).
+* parked cars (instances 26000 + k, tilted with the road surface under them), poles (label id
+  17, no instances), pedestrians (instances 24000 + k, upright) as boxes and vertical cylinders
+  standing on the true ground.
 * the ego vehicle's bonnet covers the bottom ~4-6 % of the rows.
 
 Rays: pixel (u, v) (integer = pixel centre) has optical-frame direction
 ``((u - u0) / fx, (v - v0) / fy, 1)``, so the ray parameter of a hit *is* its depth (optical z).
-Sky and ego vehicle have infinite depth and disparity 0; about 2 % of the other pixels get
-disparity 0 too (stereo holes). Everything random comes from the ``rng`` handed to
-:func:`random_scene` (and the scene's ``noise_seed``), so a seed gives byte-identical files.
+Rays are turned into T and intersected there (boxes: in their own frame). Sky and ego vehicle
+have infinite depth and disparity 0; about 2 % of the other pixels get disparity 0 too (stereo
+holes). Everything random comes from the ``rng`` handed to :func:`random_scene` (and the
+scene's ``noise_seed``), so a seed gives byte-identical files.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +64,8 @@ RGB = tuple[int, int, int]
 HOLE_FRACTION = 0.02
 #: box textures understood by the renderer
 TEXTURES = ("plain", "facade", "car_body", "glass")
+#: accepted ranges of the :func:`random_scene` options
+MAX_HEADING_DEG, MAX_SLOPE, MAX_CAMBER = 40.0, 0.15, 0.08
 
 _ROAD, _SIDEWALK, _SKY, _EGO = (label_id(n) for n in ("road", "sidewalk", "sky", "ego vehicle"))
 _POLE = label_id("pole")
@@ -60,15 +78,19 @@ _PID_FIRST_OBJECT = 3
 # ====================================================================== scene description
 @dataclass(frozen=True)
 class Box:
-    """An axis-aligned box in the vehicle frame V.
+    """A box in the street frame T, axis-aligned unless ``rotation`` is given.
 
-    lo, hi       : minimum and maximum corner (x, y, z), metres in V
+    lo, hi       : minimum and maximum corner (a, b, z), metres, in the box's own frame B
     label        : Cityscapes class name of every pixel it covers
     instance_id  : value in gtFine_instanceIds: ``label_id * 1000 + k`` for instance classes
                    (several boxes of one object share it), the plain label id otherwise
     color        : base albedo, sRGB 0-255
     texture      : one of :data:`TEXTURES`; ``facade`` draws a window grid using
                    ``floor_height`` and ``window_spacing`` (metres)
+    rotation     : None (B = T) or 9 floats, the row-major rotation R of B into T about
+                   ``pivot``: ``p_T = pivot + R @ (p_B - pivot)`` (used to tilt parked cars
+                   with the road surface; several boxes of one car share R and pivot)
+    pivot        : (a, b, z) in T, the fixed point of ``rotation``
     """
 
     lo: Vec3
@@ -79,6 +101,8 @@ class Box:
     texture: str = "plain"
     floor_height: float = 3.2
     window_spacing: float = 2.6
+    rotation: tuple[float, ...] | None = None
+    pivot: Vec3 = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not all(a < b for a, b in zip(self.lo, self.hi)):
@@ -88,13 +112,45 @@ class Box:
             raise ValueError(f"instance id {self.instance_id} does not belong to class {self.label!r}")
         if self.texture not in TEXTURES:
             raise ValueError(f"unknown texture {self.texture!r}; known: {TEXTURES}")
+        if self.rotation is not None:
+            r = np.asarray(self.rotation, float)
+            if r.shape != (9,) or not np.allclose(r.reshape(3, 3) @ r.reshape(3, 3).T, np.eye(3), atol=1e-9) \
+                    or np.linalg.det(r.reshape(3, 3)) < 0:
+                raise ValueError("rotation must be 9 floats of a proper rotation matrix (row-major)")
+
+    @property
+    def matrix(self) -> np.ndarray | None:
+        """4x4 T-from-B transform, or None when B = T."""
+        if self.rotation is None:
+            return None
+        r = np.asarray(self.rotation, float).reshape(3, 3)
+        m = np.eye(4)
+        m[:3, :3] = r
+        m[:3, 3] = np.asarray(self.pivot, float) - r @ np.asarray(self.pivot, float)
+        return m
+
+    def corners(self) -> np.ndarray:
+        """(8, 3) corners in the street frame T."""
+        lo, hi = np.array(self.lo, float), np.array(self.hi, float)
+        c = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)], float)
+        m = self.matrix
+        return c if m is None else c @ m[:3, :3].T + m[:3, 3]
+
+    def contains(self, p: np.ndarray) -> np.ndarray:
+        """Bool (N,): street-frame points p (N, 3) inside the box (boundary included)."""
+        p = np.asarray(p, float)
+        m = self.matrix
+        if m is not None:
+            p = (p - m[:3, 3]) @ m[:3, :3]  # T -> B
+        return np.all((p >= np.array(self.lo)) & (p <= np.array(self.hi)), axis=1)
 
 
 @dataclass(frozen=True)
 class Pole:
-    """A vertical cylinder (label ``pole``, instance id = label id 17), metres in V.
+    """A vertical cylinder (label ``pole``, instance id = label id 17), metres in the street frame T.
 
-    x, y    : axis position; radius; height above ``base_z`` (its bottom, the ground there).
+    x, y    : axis position (street coordinates a, b); radius; height above ``base_z`` (its
+              bottom, the ground there; sunk by ``radius * |slope|`` so no gap shows).
     """
 
     x: float
@@ -107,19 +163,26 @@ class Pole:
 
 @dataclass(frozen=True)
 class StreetScene:
-    """One synthetic street frame: camera plus geometry in the vehicle frame V (metres).
+    """One synthetic street frame: camera plus geometry in the street frame T (metres).
 
-    road_half_width  : the road is ``|y| <= road_half_width`` (plus the cross street)
-    kerb_height      : sidewalk top height above the road (0 when there is no road)
-    sidewalk_width   : sidewalks span ``road_half_width < |y| <= road_half_width + sidewalk_width``
-    boxes, poles     : the solid objects (buildings, cars, pedestrians; poles)
+    road_half_width  : the road is ``|b| <= road_half_width`` (plus the cross street)
+    kerb_height      : sidewalk top height above the road edge (0 when there is no road)
+    sidewalk_width   : sidewalks span ``road_half_width < |b| <= road_half_width + sidewalk_width``
+    boxes, poles     : the solid objects (buildings, cars, pedestrians; poles), in T
     has_road         : False: no road anywhere, the whole ground is sidewalk
-    crossing         : (x0, x1) x-range of a cross street (road for every y), or None
+    crossing         : (a0, a1) a-range of a cross street (road for every b), or None
     ego_rows         : rows of the bonnet at the image centre column (fewer at the sides)
     lane_dash        : centre-line dash length, gap and phase (metres)
     parking_lane     : width of the parking lane along each kerb (solid line at its edge)
     sun              : unit vector towards the sun in V
     noise_seed       : seed of the image noise, cloud pattern and disparity holes
+    street_heading   : radians; the street direction in V is (cos, sin) of it
+    street_origin    : (x, y) in V of the street frame's origin
+    slope            : longitudinal grade dz/da (rise over run)
+    camber           : cross-fall of the road: it falls by ``camber * |b|`` from the centre line
+    crown_z          : height of the centre line at a = 0 (so that the ground is 0 under V's origin)
+
+    Public geometry methods take and return vehicle-frame V coordinates unless named otherwise.
     """
 
     camera: Camera
@@ -135,40 +198,151 @@ class StreetScene:
     parking_lane: float = 2.2
     sun: Vec3 = (0.3, 0.4, 0.866)
     noise_seed: int = 0
+    street_heading: float = 0.0
+    street_origin: tuple[float, float] = (0.0, 0.0)
+    slope: float = 0.0
+    camber: float = 0.0
+    crown_z: float = 0.0
 
-    # ------------------------------------------------------------------ ground plan
-    def in_crossing(self, x: np.ndarray) -> np.ndarray:
-        """Bool array: x (metres in V) lies within the cross street's x-range."""
-        x = np.asarray(x)
+    # ------------------------------------------------------------------ frames
+    @property
+    def street_is_vehicle_frame(self) -> bool:
+        """True when T = V (no heading, no shift): coordinates pass through untouched."""
+        return self.street_heading == 0.0 and tuple(self.street_origin) == (0.0, 0.0)
+
+    @property
+    def vehicle_from_street(self) -> np.ndarray:
+        """4x4 transform of street-frame points into V."""
+        c, s = math.cos(self.street_heading), math.sin(self.street_heading)
+        m = np.eye(4)
+        m[:2, :2] = [[c, -s], [s, c]]
+        m[:2, 3] = self.street_origin
+        return m
+
+    def to_street(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """V ground-plan coordinates (x, y) -> street coordinates (a, b) (broadcast arrays)."""
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        if self.street_is_vehicle_frame:
+            return x, y
+        c, s = math.cos(self.street_heading), math.sin(self.street_heading)
+        dx, dy = x - self.street_origin[0], y - self.street_origin[1]
+        return c * dx + s * dy, -s * dx + c * dy
+
+    def to_vehicle(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Street coordinates (a, b) -> V ground-plan coordinates (x, y) (broadcast arrays)."""
+        a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+        if self.street_is_vehicle_frame:
+            return a, b
+        c, s = math.cos(self.street_heading), math.sin(self.street_heading)
+        return self.street_origin[0] + c * a - s * b, self.street_origin[1] + s * a + c * b
+
+    def points_to_vehicle(self, p: np.ndarray) -> np.ndarray:
+        """(N, 3) street-frame points -> (N, 3) V points."""
+        p = np.asarray(p, float)
+        m = self.vehicle_from_street
+        return p @ m[:3, :3].T + m[:3, 3]
+
+    def points_to_street(self, p: np.ndarray) -> np.ndarray:
+        """(N, 3) V points -> (N, 3) street-frame points."""
+        p = np.asarray(p, float)
+        m = self.vehicle_from_street
+        return (p - m[:3, 3]) @ m[:3, :3]
+
+    # ------------------------------------------------------------------ ground plan, street frame
+    def street_in_crossing(self, a: np.ndarray) -> np.ndarray:
+        """Bool array: street coordinate a lies within the cross street's a-range."""
+        a = np.asarray(a)
         if self.crossing is None:
-            return np.zeros(x.shape, bool)
-        return (x >= self.crossing[0]) & (x <= self.crossing[1])
+            return np.zeros(a.shape, bool)
+        return (a >= self.crossing[0]) & (a <= self.crossing[1])
+
+    def street_is_road(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Bool array: the ground at street coordinates (a, b) is road."""
+        a, b = np.broadcast_arrays(np.asarray(a), np.asarray(b))
+        if not self.has_road:
+            return np.zeros(a.shape, bool)
+        return (np.abs(b) <= self.road_half_width) | self.street_in_crossing(a)
+
+    def road_edge_height(self, a: np.ndarray) -> np.ndarray:
+        """Height of the road at its edges |b| = w (and over the cross street) at street a."""
+        return self.crown_z + self.slope * np.asarray(a) - self.camber * self.road_half_width
+
+    def sidewalk_height(self, a: np.ndarray) -> np.ndarray:
+        """Height of the sidewalk top at street a (flat across the street)."""
+        return self.road_edge_height(a) + self.kerb_height
+
+    def street_ground_height(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """True ground height z at street coordinates (a, b) (see the module docstring)."""
+        a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+        road = self.street_is_road(a, b)
+        z = self.crown_z + self.slope * a - self.camber * np.minimum(np.abs(b), self.road_half_width)
+        return z + np.where(road, 0.0, self.kerb_height)
+
+    def street_ground_normal(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(..., 3) unit upward ground normals in T at street coordinates (a, b) (the kerb faces,
+        a set of measure zero, are ignored)."""
+        a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+        on_camber = np.abs(b) <= self.road_half_width
+        dzdb = np.where(on_camber, -self.camber * np.sign(b), 0.0)
+        n = np.stack([np.full(a.shape, -self.slope), -dzdb, np.ones(a.shape)], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+    def street_surface_label(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """:meth:`surface_label` at street coordinates (a, b)."""
+        a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+        out = np.full(a.shape, "building", "<U8")
+        walk = (np.abs(b) <= self.road_half_width + self.sidewalk_width) | self.street_in_crossing(a)
+        out[walk] = "sidewalk"
+        out[self.street_is_road(a, b)] = "road"
+        return out
+
+    # ------------------------------------------------------------------ ground plan, vehicle frame
+    def in_crossing(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Bool array: V point (x, y) lies within the cross street's a-range."""
+        return self.street_in_crossing(self.to_street(x, y)[0])
 
     def is_road(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Bool array (broadcast shape of x, y): the ground at (x, y) in V is road."""
-        x, y = np.broadcast_arrays(np.asarray(x), np.asarray(y))
-        if not self.has_road:
-            return np.zeros(x.shape, bool)
-        return (np.abs(y) <= self.road_half_width) | self.in_crossing(x)
+        return self.street_is_road(*self.to_street(x, y))
 
     def ground_height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Ground height z (metres, V) at ground-plan points (x, y): 0 on road, kerb height else.
+        """True ground height z (metres, V) at ground-plan points (x, y) of V: the road surface
+        (graded and cambered) on road, the sidewalk top elsewhere.
 
         Ignores objects standing on the ground (cars, poles, buildings' volumes).
         """
-        road = self.is_road(x, y)
-        return np.where(road, 0.0, self.kerb_height)
+        return self.street_ground_height(*self.to_street(x, y))
+
+    def ground_normal(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(..., 3) unit upward ground normals in V at ground-plan points (x, y) of V."""
+        n = self.street_ground_normal(*self.to_street(x, y))
+        if self.street_is_vehicle_frame:
+            return n
+        return n @ self.vehicle_from_street[:3, :3].T
 
     def surface_label(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Class name of the ground plan at (x, y) in V: ``'road'``, ``'sidewalk'`` or
         ``'building'`` (the blocks behind the sidewalks). Returns a ``<U8`` string array of the
         broadcast shape of x and y (0-d for scalars; ``str(...)`` gives the name)."""
-        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
-        out = np.full(x.shape, "building", "<U8")
-        walk = (np.abs(y) <= self.road_half_width + self.sidewalk_width) | self.in_crossing(x)
-        out[walk] = "sidewalk"
-        out[self.is_road(x, y)] = "road"
-        return out
+        return self.street_surface_label(*self.to_street(x, y))
+
+    def road_direction(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(..., 2) unit vectors in V of the street's direction at ground-plan points (x, y):
+        horizontal, along the kerbs, pointing away from the camera. Constant (straight street)."""
+        shape = np.broadcast_shapes(np.shape(x), np.shape(y))
+        d = np.array([math.cos(self.street_heading), math.sin(self.street_heading)])
+        return np.broadcast_to(d, shape + (2,)).copy()
+
+    def inside_objects(self, points: np.ndarray) -> np.ndarray:
+        """Bool (N,): V points (N, 3) inside any box or pole of the scene (boundary included)."""
+        p = self.points_to_street(np.asarray(points, float).reshape(-1, 3))
+        hit = np.zeros(len(p), bool)
+        for box in self.boxes:
+            hit |= box.contains(p)
+        for pole in self.poles:
+            r = np.hypot(p[:, 0] - pole.x, p[:, 1] - pole.y)
+            hit |= (r <= pole.radius) & (p[:, 2] >= pole.base_z) & (p[:, 2] <= pole.base_z + pole.height)
+        return hit
 
 
 # ====================================================================== random scenes
@@ -209,10 +383,12 @@ def random_camera(rng: np.random.Generator, width: int, height: int) -> Camera:
 
 
 def _building_row(rng: np.random.Generator, side: int, x_from: float, x_to: float, y_front: float,
-                  base_z: float, extend_to: float | None) -> list[Box]:
-    """Abutting building boxes along x in [x_from, x_to] on one side (side = +1 left, -1 right).
+                  plan: StreetScene, extend_to: float | None) -> list[Box]:
+    """Abutting building boxes along a in [x_from, x_to] on one side (side = +1 left, -1 right).
 
     The last box reaches ``extend_to`` instead of ``x_to`` when given (street to the horizon).
+    Each box's base is the lowest sidewalk height under it; its height is drawn above the
+    highest one (they differ on a graded street).
     """
     boxes: list[Box] = []
     depth = 40.0  # deep blocks: rays through the cross street never see behind them
@@ -224,7 +400,9 @@ def _building_row(rng: np.random.Generator, side: int, x_from: float, x_to: floa
             end = x_to
         far = extend_to if (end >= x_to and extend_to is not None) else end
         y0, y1 = sorted((side * y_front, side * (y_front + depth)))
-        boxes.append(Box((x, y0, base_z), (far, y1, base_z + rng.uniform(8.0, 20.0)), "building",
+        base = float(min(plan.sidewalk_height(x), plan.sidewalk_height(far)))
+        rise = abs(plan.slope) * (far - x)
+        boxes.append(Box((x, y0, base), (far, y1, base + rng.uniform(8.0, 20.0) + rise), "building",
                          label_id("building"), _jitter(rng, _pick(rng, _FACADES), 8), "facade",
                          floor_height=rng.uniform(2.9, 3.5), window_spacing=rng.uniform(2.2, 3.2)))
         x = end
@@ -238,24 +416,41 @@ def _segment_hits_rect(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndar
     return bool(np.any(np.all((p >= lo) & (p <= hi), axis=1)))
 
 
+def _ground_rotation(slope: float, dzdb: float) -> tuple[float, ...] | None:
+    """Row-major rotation taking z to the normal of the plane z = slope*a + dzdb*b + c and x to
+    its steepest-along-a direction (None for a level plane): a body standing on that plane."""
+    if slope == 0.0 and dzdb == 0.0:
+        return None
+    e1 = np.array([1.0, 0.0, slope]) / math.hypot(1.0, slope)
+    e3 = np.array([-slope, -dzdb, 1.0])
+    e3 /= np.linalg.norm(e3)
+    e2 = np.cross(e3, e1)
+    return tuple(float(v) for v in np.column_stack([e1, e2, e3]).ravel())
+
+
 def _car_boxes(rng: np.random.Generator, xc: float, yc: float, ground: float, facing: int,
-               instance: int) -> list[Box]:
-    """A parked car as body, cabin and four wheel boxes, centred at (xc, yc), nose to ``facing``."""
+               instance: int, rotation: tuple[float, ...] | None = None) -> list[Box]:
+    """A parked car as body, cabin and four wheel boxes, centred at (xc, yc), nose to ``facing``.
+
+    ``ground`` is the surface height at (xc, yc); ``rotation`` (about that point) tilts the car
+    so that its wheels stand on a graded or cambered road plane.
+    """
     length, width, height = rng.uniform(3.9, 4.6), rng.uniform(1.72, 1.86), rng.uniform(1.4, 1.56)
     paint = _jitter(rng, _pick(rng, _CAR_PAINT), 6)
+    pose = {} if rotation is None else {"rotation": rotation, "pivot": (xc, yc, ground)}
     body_lo, body_top = ground + 0.3, ground + 0.62 * height
     boxes = [Box((xc - length / 2, yc - width / 2, body_lo), (xc + length / 2, yc + width / 2, body_top),
-                 "car", instance, paint, "car_body")]
+                 "car", instance, paint, "car_body", **pose)]
     c0, c1 = -0.30 * length, 0.24 * length  # cabin set back towards the rear
     if facing < 0:
         c0, c1 = -c1, -c0
     boxes.append(Box((xc + c0, yc - width / 2 + 0.07, body_top), (xc + c1, yc + width / 2 - 0.07, ground + height),
-                     "car", instance, paint, "glass"))
+                     "car", instance, paint, "glass", **pose))
     for wx in (-1, 1):
         for wy in (-1, 1):
             cx, cy = xc + wx * (length / 2 - 0.82), yc + wy * (width / 2 - 0.13)
             boxes.append(Box((cx - 0.33, cy - 0.11, ground), (cx + 0.33, cy + 0.11, ground + 0.62),
-                             "car", instance, (26, 26, 28)))
+                             "car", instance, (26, 26, 28), **pose))
     return boxes
 
 
@@ -272,14 +467,58 @@ def _person_boxes(rng: np.random.Generator, xc: float, yc: float, ground: float,
     ]
 
 
-def random_scene(rng: np.random.Generator, width: int, height: int, *, road: bool = True) -> StreetScene:
+def _visible_low(plan: StreetScene, pole: Pole) -> bool:
+    """Is the lowest half metre of the pole inside the image, clear of its borders and the bonnet?"""
+    cam = plan.camera
+    pts = plan.points_to_vehicle(np.array([[pole.x, pole.y, pole.base_z + h] for h in (0.05, 0.25, 0.5)]))
+    m = cam.optical_from_vehicle
+    q = pts @ m[:3, :3].T + m[:3, 3]
+    if (q[:, 2] < 1.0).any():
+        return False
+    u = cam.fx * q[:, 0] / q[:, 2] + cam.u0
+    v = cam.fy * q[:, 1] / q[:, 2] + cam.v0
+    return bool(np.all((u >= 0.03 * cam.width) & (u <= 0.97 * cam.width) & (v >= 0)
+                       & (v <= cam.height - 2 * plan.ego_rows)))
+
+
+def _option(value: float | None, name: str, limit: float) -> float:
+    if value is None:
+        return 0.0
+    value = float(value)
+    if not math.isfinite(value) or abs(value) > limit:
+        raise ValueError(f"{name} must be a finite number within +-{limit}, got {value}")
+    return value
+
+
+def random_scene(rng: np.random.Generator, width: int, height: int, *, road: bool = True,
+                 heading_deg: float | None = None, slope: float | None = None, camber: float | None = None,
+                 occluding_pole: bool = True) -> StreetScene:
     """Draw a street scene for a ``width`` x ``height`` image.
 
     The same ``rng`` state gives the same scene; ``road=False`` draws the same random numbers
-    but turns the whole ground into a flat sidewalk (kerb height 0, no ``road`` pixel at all).
-    At least one pole stands at the near corner of the cross street with road behind it, and no
-    parked car hides it, so occlusion of road by a pole is always present.
+    but turns the whole ground into a sidewalk (kerb height 0, no camber, no ``road`` pixel).
+
+    heading_deg : the street's direction in V, degrees (|.| <= 40; ~5-25 looks like a car turned
+                  relative to the street). The street frame is turned about the camera's ground
+                  point, so the camera stays where it is: over the road, near its centre line.
+    slope       : longitudinal grade rise/run along the street (|.| <= 0.15, e.g. -0.06..0.06).
+                  A graded street always ends in a building row across it.
+    camber      : cross-fall of the road (|.| <= 0.08, e.g. 0.02..0.03): the road falls by
+                  ``camber * |b|`` from the centre line to the kerbs.
+    occluding_pole : True: at least one pole stands at a near corner of the cross street, low in
+                  the image, with cross-street road right behind it and no parked car hiding it,
+                  so occlusion of road by a pole is always present (with a heading, a corner
+                  pole out of view moves to the other corner; ValueError if neither is in view).
+                  False: those corner poles are left out (the rest of the scene is unchanged).
+
+    None (and 0) keep the flat street along x, with outputs identical to earlier versions.
+    The ground is at height 0 under V's origin. Random numbers drawn do not depend on the
+    options, so one seed gives the same layout (in street coordinates) for any of them.
     """
+    heading = math.radians(_option(heading_deg, "heading_deg", MAX_HEADING_DEG))
+    grade = _option(slope, "slope", MAX_SLOPE)
+    fall = _option(camber, "camber", MAX_CAMBER) if road else 0.0
+
     camera = random_camera(rng, width, height)
     w = float(rng.uniform(4.2, 6.0))
     kerb = float(rng.uniform(0.12, 0.15)) if road else 0.0
@@ -287,28 +526,51 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
     xc0 = float(rng.uniform(24.0, 40.0))
     xc1 = xc0 + float(rng.uniform(10.0, 16.0))
     x_end = float(rng.uniform(130.0, 220.0))
-    end_row = bool(rng.random() < 0.6)
+    end_row = bool(rng.random() < 0.6) or grade != 0.0  # graded: no building rows to the horizon
     ego_rows = max(1, round(height * rng.uniform(0.04, 0.06)))
     az, el = rng.uniform(0.0, 2 * math.pi), rng.uniform(0.5, 0.9)
     sun = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
     dash = (3.0, 6.0, float(rng.uniform(0.0, 9.0)))
 
+    # street frame: turned about the camera's ground point; ground height 0 under V's origin
+    origin = (0.0, 0.0)
+    if heading != 0.0:
+        c, s = math.cos(heading), math.sin(heading)
+        origin = (camera.x - (c * camera.x - s * camera.y), camera.y - (s * camera.x + c * camera.y))
+    plan = StreetScene(camera=camera, road_half_width=w, kerb_height=kerb, sidewalk_width=walk, boxes=(), poles=(),
+                       has_road=road, crossing=(xc0, xc1), ego_rows=int(ego_rows), street_heading=heading,
+                       street_origin=origin, slope=grade, camber=fall)
+    a_o, b_o = (float(v) for v in plan.to_street(0.0, 0.0))
+    plan = dataclasses.replace(plan, crown_z=fall * abs(b_o) - grade * a_o + 0.0)
+
     boxes: list[Box] = []
+    after = xc1 + (0.05 if grade != 0.0 else 0.0)  # keep facades off the far kerb's plane
     for side in (1, -1):
         extend = None if end_row else 3000.0
-        boxes += _building_row(rng, side, -25.0, xc0, w + walk, kerb, None)
-        boxes += _building_row(rng, side, xc1, x_end, w + walk, kerb, extend)
+        boxes += _building_row(rng, side, -25.0, xc0, w + walk, plan, None)
+        boxes += _building_row(rng, side, after, x_end, w + walk, plan, extend)
     if end_row:
-        boxes.append(Box((x_end, -150.0, 0.0), (x_end + 25.0, 150.0, float(rng.uniform(12.0, 26.0))), "building",
-                         label_id("building"), _jitter(rng, _pick(rng, _FACADES), 8), "facade",
+        base = float(min(plan.road_edge_height(x_end), plan.road_edge_height(x_end + 25.0)))
+        rise = abs(grade) * 25.0 + abs(fall) * w
+        boxes.append(Box((x_end, -150.0, base), (x_end + 25.0, 150.0, base + float(rng.uniform(12.0, 26.0)) + rise),
+                         "building", label_id("building"), _jitter(rng, _pick(rng, _FACADES), 8), "facade",
                          floor_height=float(rng.uniform(2.9, 3.5)), window_spacing=float(rng.uniform(2.2, 3.2))))
+
+    def pole_at(a: float, b: float, radius: float, tall: float) -> Pole:
+        # sidewalk: the ground under the pole only varies along a
+        return Pole(a, b, radius, tall, float(plan.sidewalk_height(a)) - radius * abs(grade))
 
     # poles: 1-2 at the near corners of the cross street, the rest along the kerbs
     poles: list[Pole] = []
     corner_sides = [1, -1] if rng.random() < 0.4 else [int(rng.choice([1, -1]))]
     for side in corner_sides:
-        poles.append(Pole(xc0 - float(rng.uniform(0.5, 1.0)), side * (w + float(rng.uniform(0.35, 0.6))),
-                          float(rng.uniform(0.06, 0.1)), float(rng.uniform(3.6, 4.8)), kerb))
+        pa, pb = xc0 - float(rng.uniform(0.5, 1.0)), side * (w + float(rng.uniform(0.35, 0.6)))
+        radius, tall = float(rng.uniform(0.06, 0.1)), float(rng.uniform(3.6, 4.8))
+        poles.append(pole_at(pa, pb, radius, tall))
+    if occluding_pole and heading != 0.0 and not any(_visible_low(plan, p) for p in poles):
+        poles = [dataclasses.replace(p, y=-p.y) for p in poles]  # the other corner
+        if not any(_visible_low(plan, p) for p in poles):
+            raise ValueError(f"no corner pole in view at heading {math.degrees(heading):.1f} deg")
     n_poles = int(rng.integers(2, 5))
     for _ in range(200):
         if len(poles) >= n_poles:
@@ -317,15 +579,16 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         px = float(rng.uniform(7.0, 75.0))
         if xc0 - 4 <= px <= xc1 + 2 or any(abs(px - p.x) < 4.0 for p in poles):
             continue
-        poles.append(Pole(px, side * (w + float(rng.uniform(0.35, 0.6))), float(rng.uniform(0.06, 0.1)),
-                          float(rng.uniform(3.6, 4.8)), kerb))
+        py = side * (w + float(rng.uniform(0.35, 0.6)))
+        radius, tall = float(rng.uniform(0.06, 0.1)), float(rng.uniform(3.6, 4.8))
+        poles.append(pole_at(px, py, radius, tall))
     corner = poles[:len(corner_sides)]
 
     # parked cars along the kerbs, in their side's direction of travel (right-hand traffic)
     car_id = label_id("car") * INSTANCE_FACTOR
     n_cars = int(rng.integers(2, 6))
     placed: list[tuple[float, float, float]] = []  # (x_min, x_max, side)
-    cam_xy = np.array([camera.x, camera.y])
+    cam_xy = np.array([float(v) for v in plan.to_street(camera.x, camera.y)])
     for _ in range(400):
         if len(placed) >= n_cars:
             break
@@ -341,7 +604,10 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         lo, hi = np.array([x0, yc - half_wid]), np.array([x1, yc + half_wid])
         if any(_segment_hits_rect(cam_xy, np.array([p.x, p.y]), lo - p.radius, hi + p.radius) for p in corner):
             continue  # keep the corner poles in full view
-        boxes += _car_boxes(rng, xc, yc, 0.0, -side, car_id + len(placed))
+        # the car stands on its half of the road: the plane z = crown + grade*a - fall*side*b
+        ground = plan.crown_z + grade * xc - fall * abs(yc)
+        boxes += _car_boxes(rng, xc, yc, ground, -side, car_id + len(placed),
+                            _ground_rotation(grade, -fall * side))
         placed.append((x0, x1, side))
 
     # 0-2 pedestrians on the sidewalks
@@ -354,25 +620,27 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         px, py = float(rng.uniform(8.0, 60.0)), side * (w + float(rng.uniform(0.9, walk - 0.5)))
         if xc0 - 3 <= px <= xc1 + 1 or any(abs(px - p.x) < 2.0 for p in poles):
             continue
-        boxes += _person_boxes(rng, px, py, kerb, person_id + people)
+        ground = float(min(plan.sidewalk_height(px - 0.14), plan.sidewalk_height(px + 0.14)))
+        boxes += _person_boxes(rng, px, py, ground, person_id + people)
         people += 1
 
-    return StreetScene(camera=camera, road_half_width=w, kerb_height=kerb, sidewalk_width=walk,
-                       boxes=tuple(boxes), poles=tuple(poles), has_road=road, crossing=(xc0, xc1),
-                       ego_rows=int(ego_rows), lane_dash=dash, sun=sun,
-                       noise_seed=int(rng.integers(0, 2**62)))
+    if not occluding_pole:
+        poles = poles[len(corner_sides):]
+    return dataclasses.replace(plan, boxes=tuple(boxes), poles=tuple(poles), lane_dash=dash, sun=sun,
+                               noise_seed=int(rng.integers(0, 2**62)))
 
 
 # ====================================================================== ray casting
 @dataclass(eq=False)
 class _Buffers:
-    """Per-pixel ray and hit data, all (H, W). Directions are in V with optical z = 1."""
+    """Per-pixel ray and hit data, all (H, W). Origin and directions are in the street frame T,
+    directions scaled to optical z = 1 (so the ray parameter is the depth)."""
 
-    origin: np.ndarray  # (3,) float64 camera centre in V
-    d: tuple[np.ndarray, np.ndarray, np.ndarray]  # dx, dy, dz float32
+    origin: np.ndarray  # (3,) float64 camera centre in T
+    d: tuple[np.ndarray, np.ndarray, np.ndarray]  # da, db, dz float32
     depth: np.ndarray  # float32, inf = no hit
     pid: np.ndarray  # int16 primitive id
-    face: np.ndarray  # int8: 2*axis + (1 if normal points to +axis else 0)
+    face: np.ndarray  # int8: 2*axis + (1 if normal points to +axis else 0), in T (ground: 5)
 
 
 def _rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -384,10 +652,25 @@ def _rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return dx, dy, dz
 
 
-def _screen_rect(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[slice, slice] | None:
-    """Pixel rows/columns that can see the box [lo, hi] (V), or None if it is all behind."""
+def _street_rays(scene: StreetScene) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Camera centre (float64) and pixel rays (float32) in the street frame T."""
+    cam = scene.camera
+    dx, dy, dz = _rays(cam)
+    if scene.street_is_vehicle_frame:
+        return cam.position.astype(np.float64), (dx, dy, dz)
+    origin = scene.points_to_street(cam.position.astype(np.float64)[None])[0]
+    c, s = np.float32(math.cos(scene.street_heading)), np.float32(math.sin(scene.street_heading))
+    return origin, (c * dx + s * dy, c * dy - s * dx, dz)
+
+
+def _screen_rect(camera: Camera, lo: np.ndarray, hi: np.ndarray,
+                 vehicle_from_local: np.ndarray | None = None) -> tuple[slice, slice] | None:
+    """Pixel rows/columns that can see the box [lo, hi] of a local frame (V unless
+    ``vehicle_from_local``, a 4x4 transform, says otherwise), or None if it is all behind."""
     corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)], float)
     m = camera.optical_from_vehicle
+    if vehicle_from_local is not None:
+        m = m @ vehicle_from_local
     pts = corners @ m[:3, :3].T + m[:3, 3]
     near = 1e-3
     keep = [p for p in pts if p[2] >= near]
@@ -420,47 +703,77 @@ def _commit(buf: _Buffers, rect: tuple[slice, slice], t: np.ndarray, hit: np.nda
     buf.face[rect][win] = face[win] if isinstance(face, np.ndarray) else face
 
 
+def _ground_planes(scene: StreetScene) -> list[tuple[float, float, object, int]]:
+    """The ground as planes z = c + slope*a + q*b, each with the region (a, b) -> bool where
+    it is the surface: [(c, q, region, pid)]. The cambered road is two planes meeting at the
+    centre line plus the cross street's plane beyond the kerb lines."""
+    w, k, c0 = scene.road_half_width, scene.kerb_height, scene.crown_z
+    edge = c0 - scene.camber * w
+    if scene.camber == 0.0:
+        road = [(c0, 0.0, scene.street_is_road, _PID_ROAD)]
+    else:
+        road = [(c0, -scene.camber, lambda a, b: (b >= 0) & (b <= w), _PID_ROAD),
+                (c0, scene.camber, lambda a, b: (b < 0) & (b >= -w), _PID_ROAD),
+                (edge, 0.0, lambda a, b: (np.abs(b) > w) & scene.street_in_crossing(a), _PID_ROAD)]
+        if not scene.has_road:
+            road = []
+    walk = (edge + k, 0.0, lambda a, b: ~scene.street_is_road(a, b), _PID_SIDEWALK)
+    return road + [walk]
+
+
 def _cast_ground(scene: StreetScene, buf: _Buffers) -> None:
-    """Road plane, sidewalk top plane and kerb faces, over the whole image."""
-    ox, oy, oz = (float(c) for c in buf.origin)
-    dx, dy, dz = buf.d
+    """Road planes, sidewalk top plane and kerb faces, over the whole image (exact planes)."""
+    oa, ob, oz = (float(c) for c in buf.origin)
+    da, db, dz = buf.d
     full = (slice(None), slice(None))
-    w, k = np.float32(scene.road_half_width), np.float32(scene.kerb_height)
+    w, k, g = np.float32(scene.road_half_width), np.float32(scene.kerb_height), scene.slope
     with np.errstate(divide="ignore", invalid="ignore"):
-        for height, pid in ((0.0, _PID_ROAD), (scene.kerb_height, _PID_SIDEWALK)):
-            t = np.where(dz < 0, np.float32(height - oz) / dz, np.float32(np.inf))
-            road = scene.is_road(ox + t * dx, oy + t * dy)
-            hit = np.isfinite(t) & (road if pid == _PID_ROAD else ~road)
+        for c0, q, region, pid in _ground_planes(scene):
+            # oz + t dz = c0 + g (oa + t da) + q (ob + t db); entering from above: den < 0
+            den = dz - g * da - q * db
+            t = np.where(den < 0, np.float32(c0 + g * oa + q * ob - oz) / den, np.float32(np.inf))
+            hit = np.isfinite(t) & region(oa + t * da, ob + t * db)
             _commit(buf, full, t, hit, pid, 5)
         if not scene.has_road or scene.kerb_height <= 0:
             return
-        # kerb faces along the road (y = +-w, facing the road) and the far side of the crossing
+        # kerb faces along the road (b = +-w, facing the road) and the far side of the crossing
         for sign in (1, -1):
-            t = np.float32(sign * w - oy) / dy
-            z, x = oz + t * dz, ox + t * dx
-            hit = (sign * dy > 0) & (z >= 0) & (z <= k) & ~scene.in_crossing(x)
+            t = np.float32(sign * w - ob) / db
+            z, a = oz + t * dz, oa + t * da
+            bottom = scene.road_edge_height(a)
+            hit = (sign * db > 0) & (z >= bottom) & (z <= bottom + k) & ~scene.street_in_crossing(a)
             _commit(buf, full, t, hit, _PID_KERB, 2 if sign > 0 else 3)
         if scene.crossing is not None:
-            t = np.float32(scene.crossing[1] - ox) / dx
-            z, y = oz + t * dz, oy + t * dy
-            hit = (dx > 0) & (z >= 0) & (z <= k) & (np.abs(y) > w)
+            t = np.float32(scene.crossing[1] - oa) / da
+            z, b = oz + t * dz, ob + t * db
+            bottom = float(scene.road_edge_height(scene.crossing[1]))
+            hit = (da > 0) & (z >= bottom) & (z <= bottom + k) & (np.abs(b) > w)
             _commit(buf, full, t, hit, _PID_KERB, 0)
 
 
-def _cast_box(box: Box, pid: int, buf: _Buffers, camera: Camera) -> None:
-    """Slab test of one box over the pixels of its screen rectangle."""
+def _cast_box(box: Box, pid: int, buf: _Buffers, camera: Camera, v_from_t: np.ndarray | None) -> None:
+    """Slab test of one box over the pixels of its screen rectangle (in the box's own frame)."""
     lo, hi = np.array(box.lo), np.array(box.hi)
-    rect = _screen_rect(camera, lo, hi)
+    t_from_b = box.matrix
+    m = t_from_b if v_from_t is None else v_from_t if t_from_b is None else v_from_t @ t_from_b
+    rect = _screen_rect(camera, lo, hi, m)
     if rect is None:
         return
+    if t_from_b is None:
+        origin, dirs = buf.origin, [buf.d[axis][rect] for axis in range(3)]
+    else:  # rays into B: p_B = R^T (p_T - t)
+        r = t_from_b[:3, :3]
+        origin = r.T @ (buf.origin - t_from_b[:3, 3])
+        rd = r.astype(np.float32)
+        dirs = [rd[0, i] * buf.d[0][rect] + rd[1, i] * buf.d[1][rect] + rd[2, i] * buf.d[2][rect] for i in range(3)]
     t_near = np.full(buf.depth[rect].shape, -np.inf, np.float32)
     t_far = np.full(t_near.shape, np.inf, np.float32)
     face = np.zeros(t_near.shape, np.int8)
     with np.errstate(divide="ignore", invalid="ignore"):
         for axis in range(3):
-            d = buf.d[axis][rect]
+            d = dirs[axis]
             inv = np.float32(1.0) / d
-            o = buf.origin[axis]
+            o = origin[axis]
             t1, t2 = np.float32(lo[axis] - o) * inv, np.float32(hi[axis] - o) * inv
             tmin, tmax = np.minimum(t1, t2), np.maximum(t1, t2)
             later = tmin > t_near
@@ -470,11 +783,11 @@ def _cast_box(box: Box, pid: int, buf: _Buffers, camera: Camera) -> None:
     _commit(buf, rect, t_near, (t_near <= t_far) & (t_near > 0), pid, face)
 
 
-def _cast_pole(pole: Pole, pid: int, buf: _Buffers, camera: Camera) -> None:
+def _cast_pole(pole: Pole, pid: int, buf: _Buffers, camera: Camera, v_from_t: np.ndarray | None) -> None:
     """Ray / vertical cylinder side intersection (float64 for a stable discriminant)."""
     r = pole.radius
     rect = _screen_rect(camera, np.array([pole.x - r, pole.y - r, pole.base_z]),
-                        np.array([pole.x + r, pole.y + r, pole.base_z + pole.height]))
+                        np.array([pole.x + r, pole.y + r, pole.base_z + pole.height]), v_from_t)
     if rect is None:
         return
     dx, dy, dz = (c[rect].astype(np.float64) for c in buf.d)
@@ -516,11 +829,11 @@ def _cell_noise(a: np.ndarray, b: np.ndarray, size: float, salt: int) -> np.ndar
 
 
 def _road_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(N, 3) asphalt colour with markings at road points (x, y) in V."""
+    """(N, 3) asphalt colour with markings at road points (x, y) = (a, b) in the street frame."""
     base = 88 + 7 * _cell_noise(x, y, 0.04, 1) + 4 * _cell_noise(x, y, 1.7, 2)
     rgb = np.stack([base, base + 1, base + 3], axis=1)
     w, ay = scene.road_half_width, np.abs(y)
-    crossing = scene.in_crossing(x)
+    crossing = scene.street_in_crossing(x)
     dash, gap, phase = scene.lane_dash
     paint = (ay <= 0.07) & (np.mod(x - phase, dash + gap) < dash) & ~crossing
     paint |= (np.abs(ay - (w - scene.parking_lane)) <= 0.06) & ~crossing
@@ -533,7 +846,8 @@ def _road_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray) -> np.ndarray
 
 
 def _sidewalk_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """(N, 3) paving colour: tiles of 0.3 m with grout lines faded with distance, kerbstones."""
+    """(N, 3) paving colour at street-frame points (x, y) = (a, b): tiles of 0.3 m with grout
+    lines faded with distance, kerbstones."""
     tile = 0.3
     base = 156 + 7 * _cell_noise(x, y, tile, 4) + 4 * _cell_noise(x, y, 0.03, 5)
     fx = scene.camera.fx
@@ -543,13 +857,13 @@ def _sidewalk_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray, depth: np
     base = base * (1 - 0.18 * grout)
     rgb = np.stack([base + 2, base, base - 4], axis=1)
     if scene.has_road:
-        kerbstone = (np.abs(y) - scene.road_half_width < 0.16) & ~scene.in_crossing(x)
+        kerbstone = (np.abs(y) - scene.road_half_width < 0.16) & ~scene.street_in_crossing(x)
         rgb[kerbstone] = (178 + 5 * _cell_noise(x, y, 1.0, 6))[kerbstone, None]
     return rgb
 
 
 def _box_albedo(box: Box, p: np.ndarray, face: np.ndarray, y_center_sign: float) -> np.ndarray:
-    """(N, 3) colour of box surface points p (N, 3, V) on faces ``face`` (N,)."""
+    """(N, 3) colour of box surface points p (N, 3, in the box's frame) on faces ``face`` (N,)."""
     color = np.array(box.color, np.float32)
     n = len(p)
     rgb = np.broadcast_to(color, (n, 3)).copy()
@@ -621,13 +935,20 @@ def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Ge
     bounds = np.searchsorted(pid[order], np.arange(_PID_EGO, _PID_FIRST_OBJECT + n_obj + 1))
     groups = {p: order[bounds[i]:bounds[i + 1]] for i, p in enumerate(range(_PID_EGO, _PID_FIRST_OBJECT + n_obj))}
     depth = buf.depth.ravel()
-    sun = np.array(scene.sun, np.float32)
+    sun = np.array(scene.sun, np.float64)
+    if not scene.street_is_vehicle_frame:  # shading happens in the street frame
+        sun = scene.vehicle_from_street[:3, :3].T @ sun
+    sun = sun.astype(np.float32)
     haze = np.array([204, 208, 213], np.float32)
 
     # car/person ground footprints darken the ground under and around them (contact shadow)
     feet: dict[int, list[float]] = {}
     for box in scene.boxes:
-        if box.label in ("car", "person") and box.lo[2] <= scene.kerb_height + 0.05:
+        if box.rotation is not None:
+            ground = box.pivot[2]
+        else:
+            ground = float(scene.street_ground_height((box.lo[0] + box.hi[0]) / 2, (box.lo[1] + box.hi[1]) / 2))
+        if box.label in ("car", "person") and box.lo[2] <= ground + 0.05:
             f = feet.setdefault(box.instance_id, [np.inf, np.inf, -np.inf, -np.inf])
             f[:] = [min(f[0], box.lo[0]), min(f[1], box.lo[1]), max(f[2], box.hi[0]), max(f[3], box.hi[1])]
 
@@ -641,11 +962,11 @@ def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Ge
         t = depth[idx]
         return np.stack([buf.origin[i] + t * buf.d[i].ravel()[idx] for i in range(3)], axis=1)
 
-    def face_normals(idx: np.ndarray) -> np.ndarray:
+    def face_normals(idx: np.ndarray, rotation: np.ndarray | None = None) -> np.ndarray:
         face = buf.face.ravel()[idx].astype(np.int64)
         n = np.zeros((len(idx), 3), np.float32)
         n[np.arange(len(idx)), face // 2] = np.where(face % 2 == 1, 1.0, -1.0)
-        return n
+        return n if rotation is None else n @ rotation.T.astype(np.float32)
 
     # sky
     clouds = cv2.resize(rng.standard_normal((6, 12)).astype(np.float32), (w, h), interpolation=cv2.INTER_CUBIC) * 5
@@ -665,21 +986,28 @@ def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Ge
             along = np.where(buf.face.ravel()[idx] // 2 == 0, pt[:, 1], pt[:, 0])
             g = 170 + 6 * _cell_noise(along, pt[:, 2], 1.0, 9)
             albedo = np.stack([g, g, g - 3], axis=1)
-        if p != _PID_KERB:
+        if p == _PID_KERB:
+            normal = face_normals(idx)
+        else:
+            normal = scene.street_ground_normal(pt[:, 0].astype(np.float64), pt[:, 1].astype(np.float64))
+            normal = normal.astype(np.float32)
             ao = np.ones(len(idx), np.float32)
             for x0, y0, x1, y1 in feet.values():
                 ddx = np.maximum(np.maximum(x0 - pt[:, 0], pt[:, 0] - x1), 0)
                 ddy = np.maximum(np.maximum(y0 - pt[:, 1], pt[:, 1] - y1), 0)
                 ao *= 1 - 0.55 * np.exp(-(ddx * ddx + ddy * ddy) / np.float32(0.1))
             albedo *= ao[:, None]
-        lit(idx, albedo, face_normals(idx))
+        lit(idx, albedo, normal)
     # objects
     for i, box in enumerate(scene.boxes):
         idx = groups[_PID_FIRST_OBJECT + i]
         if len(idx):
             face = buf.face.ravel()[idx].astype(np.int64)
-            albedo = _box_albedo(box, points(idx), face, float(np.sign(box.lo[1] + box.hi[1])))
-            lit(idx, albedo, face_normals(idx))
+            m, pt = box.matrix, points(idx)
+            if m is not None:  # street frame -> the box's frame
+                pt = ((pt - m[:3, 3]) @ m[:3, :3]).astype(np.float32)
+            albedo = _box_albedo(box, pt, face, float(np.sign(box.lo[1] + box.hi[1])))
+            lit(idx, albedo, face_normals(idx, None if m is None else m[:3, :3]))
     for j, pole in enumerate(scene.poles):
         idx = groups[_PID_FIRST_OBJECT + len(scene.boxes) + j]
         if len(idx):
@@ -713,14 +1041,16 @@ def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
     """
     cam = scene.camera
     h, w = cam.height, cam.width
-    buf = _Buffers(origin=cam.position.astype(np.float64), d=_rays(cam),
+    origin, dirs = _street_rays(scene)
+    v_from_t = None if scene.street_is_vehicle_frame else scene.vehicle_from_street
+    buf = _Buffers(origin=origin, d=dirs,
                    depth=np.full((h, w), np.inf, np.float32), pid=np.full((h, w), _PID_SKY, np.int16),
                    face=np.zeros((h, w), np.int8))
     _cast_ground(scene, buf)
     for i, box in enumerate(scene.boxes):
-        _cast_box(box, _PID_FIRST_OBJECT + i, buf, cam)
+        _cast_box(box, _PID_FIRST_OBJECT + i, buf, cam, v_from_t)
     for j, pole in enumerate(scene.poles):
-        _cast_pole(pole, _PID_FIRST_OBJECT + len(scene.boxes) + j, buf, cam)
+        _cast_pole(pole, _PID_FIRST_OBJECT + len(scene.boxes) + j, buf, cam, v_from_t)
     ego = _ego_mask(h, w, scene.ego_rows)
     buf.depth[ego] = np.inf
     buf.pid[ego] = _PID_EGO

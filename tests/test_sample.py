@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from pathlib import Path
 
 import cv2
@@ -155,3 +156,238 @@ def test_scene_without_road():
         xs, ys = np.meshgrid(np.linspace(-20, 200, 50), np.linspace(-30, 30, 50))
         assert not (scene.surface_label(xs, ys) == "road").any()
         assert (scene.ground_height(xs, ys) == 0).all()
+
+
+# ---------------------------------------------------------------------- graded, cambered, turned streets
+#: sha256 over the decoded pixels (dtype, shape, bytes) and camera JSON bytes of
+#: make_sample(count=2, width=256, height=128, seed=11), computed with the generator before the
+#: heading/slope/camber options existed. Decoded content rather than PNG bytes, so that another
+#: PNG encoder build cannot fail it; equal PNG bytes for equal content are what
+#: test_same_seed_gives_identical_files checks. (The PNG files' own sha256 was
+#: 13b29a3544435f0b744942d6aa656fe8e56a8627702328f269b985a0e6706c41 with OpenCV 5.0.0.)
+DEFAULT_CONTENT_SHA256 = "1f152df717fe53560bf4131cb038e8aabb9731cf0962e39ef34529d1b750389f"
+TILTED = {"heading_deg": 15.0, "slope": 0.04, "camber": 0.025}
+
+
+def _content_sha256(root: Path, idents: list[ImageSetId]) -> str:
+    h = hashlib.sha256()
+    for ident in idents:
+        for kind in KINDS:
+            path = ident.path(root, kind)
+            if kind == "camera":
+                h.update(path.read_bytes())
+            else:
+                a = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+                h.update(f"{a.dtype.str}{a.shape}".encode())
+                h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def test_default_output_unchanged_by_the_new_options(tmp_path):
+    idents = make_sample(tmp_path, count=2, width=256, height=128, seed=11)
+    assert _content_sha256(tmp_path, idents) == DEFAULT_CONTENT_SHA256
+    # None and 0 are the same flat street along x
+    a = random_scene(np.random.default_rng([3, 1]), 256, 128)
+    b = random_scene(np.random.default_rng([3, 1]), 256, 128, heading_deg=0, slope=0.0, camber=0)
+    assert a == b and a.street_is_vehicle_frame and a.street_heading == 0 and a.slope == a.camber == 0
+
+
+@pytest.fixture(scope="module")
+def tilted() -> list[tuple[StreetScene, dict[str, np.ndarray]]]:
+    """Frames of a street turned by 15 deg, 4 % uphill, 2.5 % camber, and a steeper variant."""
+    scenes = [scene_of(i, **TILTED) for i in range(2)]
+    scenes.append(scene_of(2, heading_deg=-22.0, slope=-0.06, camber=0.03))
+    return [(s, render_scene(s)) for s in scenes]
+
+
+def _off_steps(scene: StreetScene, x: np.ndarray, y: np.ndarray, margin: float) -> np.ndarray:
+    """Points at least ``margin`` away from the kerb lines (where the ground height jumps)."""
+    a, b = scene.to_street(x, y)
+    return (np.abs(np.abs(b) - scene.road_half_width) > margin) & (np.abs(a - scene.crossing[0]) > margin) \
+        & (np.abs(a - scene.crossing[1]) > margin)
+
+
+def test_tilted_street_frame_and_parameters(tilted):
+    scene = tilted[0][0]
+    cam = scene.camera
+    assert scene.street_heading == pytest.approx(np.radians(15.0)) and not scene.street_is_vehicle_frame
+    assert (scene.slope, scene.camber) == (0.04, 0.025)
+    # the camera stayed where it was: over the road, near the centre line; ground 0 under V's origin
+    a, b = scene.to_street(cam.x, cam.y)
+    assert abs(float(b)) < 0.2 and str(scene.surface_label(cam.x, cam.y)) == "road"
+    assert float(scene.ground_height(0.0, 0.0)) == pytest.approx(0.0, abs=1e-12)
+    # frames round-trip; road_direction is the unit street direction, away from the camera
+    x, y = np.random.default_rng(0).uniform(-20, 80, (2, 50))
+    assert np.allclose(scene.to_vehicle(*scene.to_street(x, y)), (x, y))
+    d = scene.road_direction(x, y)
+    assert d.shape == (50, 2) and np.allclose(d, [np.cos(np.radians(15)), np.sin(np.radians(15))])
+    a2, _ = scene.to_street(cam.x + d[0, 0], cam.y + d[0, 1])
+    assert float(a2 - a) == pytest.approx(1.0)
+
+
+def test_ground_height_slope_camber_and_normals(tilted):
+    for scene, _ in tilted:
+        w, k, g, c = scene.road_half_width, scene.kerb_height, scene.slope, scene.camber
+        along = np.array([10.0, 11.0, 60.0])
+        for bb in (0.0, 0.7 * w, -0.7 * w):  # road: slope along, camber across
+            z = scene.ground_height(*scene.to_vehicle(along, bb))
+            assert np.allclose(np.diff(z) / np.diff(along), g)
+            assert float(z[0]) == pytest.approx(scene.crown_z + g * 10 - c * abs(bb))
+        for bb in (w + 0.5, w + 2.0, -(w + 1.0)):  # sidewalk: kerb above the road edge, flat across
+            z = scene.ground_height(*scene.to_vehicle(10.0, bb))
+            assert float(z) == pytest.approx(scene.crown_z + g * 10 - c * w + k)
+            assert str(scene.surface_label(*scene.to_vehicle(10.0, bb))) == "sidewalk"
+        # normals = the normalised gradient of ground_height (central differences off the edges)
+        rng = np.random.default_rng(1)
+        x, y = scene.to_vehicle(rng.uniform(5, 80, 400), rng.uniform(-w - 3, w + 3, 400))
+        keep = _off_steps(scene, x, y, 0.01) & (np.abs(scene.to_street(x, y)[1]) > 0.01)
+        x, y = x[keep], y[keep]
+        e = 1e-4
+        gx = (scene.ground_height(x + e, y) - scene.ground_height(x - e, y)) / (2 * e)
+        gy = (scene.ground_height(x, y + e) - scene.ground_height(x, y - e)) / (2 * e)
+        n = np.stack([-gx, -gy, np.ones_like(gx)], axis=1)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        assert np.allclose(scene.ground_normal(x, y), n, atol=1e-6)
+
+
+def test_tilted_back_projection_matches_ground_height(tilted):
+    """Written disparity -> depth -> points: road and sidewalk tops within 2 cm (< 30 m)."""
+    for scene, arr in tilted:
+        cam = scene.camera
+        cloud = point_cloud(disparity_to_depth(arr["disparity"], cam), arr["label_ids"], cam)
+        x, y, z = cloud.vehicle.astype(np.float64).T
+        near = (cloud.optical[:, 2] < 30) & _off_steps(scene, x, y, 0.05)
+        err = np.abs(z - scene.ground_height(x, y))
+        road = near & (cloud.labels == ROAD)
+        top = near & (cloud.labels == SIDEWALK)  # off the steps: no kerb face points
+        assert road.sum() > 2000 and top.sum() > 500
+        assert err[road].max() < 0.02 and err[top].max() < 0.02
+        # the ground really is tilted: the flat z = 0 / kerb-height model is far off
+        assert np.abs(z[road]).max() > 0.3
+
+
+def test_tilted_exact_depth_matches_surfaces(tilted):
+    for scene, arr in tilted:
+        cam = scene.camera
+        cloud = point_cloud(arr["depth"], arr["label_ids"], cam)
+        x, y, z = cloud.vehicle.astype(np.float64).T
+        close = cloud.optical[:, 2] < 60
+        road = cloud.labels == ROAD
+        assert (scene.surface_label(x[road], y[road]) == "road").all()
+        assert np.abs(z - scene.ground_height(x, y))[road & close].max() < 2e-3
+        # sidewalk: tops at the ground height, kerb faces between road edge and sidewalk top
+        walk = close & (cloud.labels == SIDEWALK)
+        a, b = scene.to_street(x, y)
+        face = walk & ~_off_steps(scene, x, y, 0.002)
+        edge = scene.road_edge_height(a)
+        assert np.abs(z - scene.ground_height(x, y))[walk & ~face].max() < 2e-3
+        assert face.sum() > 50
+        assert ((z[face] > edge[face] - 2e-3) & (z[face] < edge[face] + scene.kerb_height + 2e-3)).all()
+        assert (np.isfinite(arr["depth"]) == ~np.isin(arr["label_ids"], [SKY, EGO])).all()
+
+
+def _kerb_direction_deg(scene: StreetScene, arr: dict[str, np.ndarray], max_depth: float = 40.0) -> float:
+    """Direction (deg, in V) of the road/sidewalk boundary lines seen in the label image: the
+    angle at which the boundary points, back-projected onto the ground plan, line up best."""
+    labels, depth = arr["label_ids"], arr["depth"]
+    walk = labels == SIDEWALK
+    edge = (labels == ROAD) & (np.roll(walk, 1, axis=1) | np.roll(walk, -1, axis=1)
+                               | np.roll(walk, 1, axis=0) | np.roll(walk, -1, axis=0))
+    edge[:, [0, -1]] = False
+    edge[[0, -1], :] = False
+    edge &= depth < max_depth
+    mask = np.full(labels.shape, 0, np.uint8)
+    mask[edge] = ROAD
+    cloud = point_cloud(np.where(edge, depth, np.inf).astype(np.float32), mask, scene.camera)
+    p = cloud.vehicle[:, :2].astype(np.float64)
+    assert len(p) > 100
+    best, best_score = 0.0, -1.0
+    for deg in np.arange(-45.0, 45.0, 0.05):
+        t = np.radians(deg)
+        s = p @ np.array([-np.sin(t), np.cos(t)])  # offset across the candidate direction
+        counts = np.bincount(np.floor((s - s.min()) / 0.05).astype(int))
+        score = float((counts.astype(np.float64) ** 2).sum())
+        if score > best_score:
+            best, best_score = deg, score
+    return best
+
+
+def test_road_direction_matches_kerb_lines(tilted):
+    for scene, arr in tilted:
+        d = scene.road_direction(np.array([20.0]), np.array([0.0]))[0]
+        expected = np.degrees(np.arctan2(d[1], d[0]))
+        assert abs(_kerb_direction_deg(scene, arr) - expected) < 1.0
+    flat = scene_of(0)
+    assert abs(_kerb_direction_deg(flat, render_scene(flat))) < 1.0
+
+
+def test_turning_the_street_equals_turning_the_camera(tilted):
+    """Heading h about the camera's ground point = the same street seen by a camera yawed by -h."""
+    scene, arr = tilted[0]
+    h = scene.street_heading
+    same = dataclasses.replace(scene, street_heading=0.0, street_origin=(0.0, 0.0),
+                               camera=dataclasses.replace(scene.camera, yaw=scene.camera.yaw - h))
+    other = render_scene(same)
+    assert (arr["label_ids"] != other["label_ids"]).mean() < 1e-3
+    finite = np.isfinite(arr["depth"]) & np.isfinite(other["depth"])
+    rel = np.abs(arr["depth"][finite] / other["depth"][finite] - 1)
+    assert np.median(rel) < 1e-6 and (rel < 1e-4).mean() > 0.999
+
+
+def test_objects_stand_on_the_true_ground(tilted):
+    for scene, _ in tilted:
+        for pole in scene.poles:  # the ground under the pole's disc is at or above its base
+            ang = np.linspace(0, 2 * np.pi, 16)
+            x, y = scene.to_vehicle(pole.x + pole.radius * np.cos(ang), pole.y + pole.radius * np.sin(ang))
+            ground = scene.ground_height(x, y)
+            assert ground.min() >= pole.base_z - 1e-9
+            assert ground.min() - pole.base_z < 1e-3 + pole.radius * abs(scene.slope)
+        wheels = [b for b in scene.boxes if b.label == "car" and b.color == (26, 26, 28)]
+        assert wheels and all(b.rotation is not None for b in wheels)  # cars tilt with the road
+        for box in wheels + [b for b in scene.boxes if b.label == "person"][::3]:
+            bottom = box.corners()[[0, 1, 2, 3]]  # corners with z = lo (bit 2 clear)
+            x, y = scene.to_vehicle(bottom[:, 0], bottom[:, 1])
+            ground = scene.ground_height(x, y)
+            if box.label == "car":  # wheels: their bottom face lies in the road plane
+                assert np.allclose(bottom[:, 2], ground, atol=1e-9)
+            else:  # upright pedestrians: sunk by at most the grade over their footprint
+                assert (bottom[:, 2] <= ground + 1e-9).all()
+                assert (ground - bottom[:, 2]).max() < abs(scene.slope) * 0.3 + 1e-9
+        # exact containment test in V, also for the tilted car boxes
+        body = next(b for b in scene.boxes if b.label == "car")
+        centre = scene.points_to_vehicle(body.corners().mean(axis=0)[None])
+        assert scene.inside_objects(centre).all()
+        assert not scene.inside_objects(centre + [0.0, 0.0, 3.0]).any()
+
+
+def test_pole_hides_road_on_turned_graded_streets():
+    for frame, (heading, slope) in enumerate([(20, 0.05), (-25, -0.06), (25, 0.0), (-10, 0.06)]):
+        scene = scene_of(frame, heading_deg=heading, slope=slope, camber=0.03)
+        arr = render_scene(scene)
+        without = render_scene(dataclasses.replace(scene, poles=()))
+        assert ((arr["label_ids"] == POLE) & (without["label_ids"] == ROAD)).sum() >= 3, (heading, slope)
+
+
+def test_occluding_pole_false_drops_only_the_corner_poles():
+    rng_args = ([SEED, 1], W, H)
+    full = random_scene(np.random.default_rng(rng_args[0]), *rng_args[1:], heading_deg=10, slope=0.03)
+    bare = random_scene(np.random.default_rng(rng_args[0]), *rng_args[1:], heading_deg=10, slope=0.03,
+                        occluding_pole=False)
+    assert bare.boxes == full.boxes and len(bare.poles) < len(full.poles)
+    assert bare.poles == full.poles[len(full.poles) - len(bare.poles):]
+    assert not any(bare.crossing[0] - 1.0 <= p.x <= bare.crossing[0] for p in bare.poles)
+
+
+def test_option_ranges_are_checked():
+    for kw in ({"heading_deg": 60.0}, {"slope": 0.3}, {"camber": -0.2}, {"slope": float("nan")}):
+        with pytest.raises(ValueError):
+            random_scene(np.random.default_rng(0), 256, 128, **kw)
+    # no road: camber has nothing to crown, the ground is the graded sidewalk plane
+    scene = random_scene(np.random.default_rng(0), 256, 128, road=False, slope=0.05, camber=0.03)
+    assert scene.camber == 0 and scene.kerb_height == 0
+    arr = render_scene(scene)
+    assert not (arr["label_ids"] == ROAD).any()
+    cloud = point_cloud(arr["depth"], arr["label_ids"], scene.camera)
+    x, y, z = cloud.vehicle.astype(np.float64).T
+    walk = (cloud.labels == SIDEWALK) & (cloud.optical[:, 2] < 60)
+    assert np.abs(z - scene.ground_height(x, y))[walk].max() < 2e-3
