@@ -21,7 +21,7 @@ system: ## install system packages (Mesa EGL, assimp) when missing
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q -e '.[test,ray]'
 	touch $@
 
 venv: $(VENV)/.installed ## create the virtualenv with the package and test tools

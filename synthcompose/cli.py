@@ -10,18 +10,21 @@ from .errors import SynthComposeError
 
 
 def _batch(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .batch import run_batch
     from .manifest import load_manifest
-    from .pipeline import run_batch
 
     manifest = load_manifest(args.manifest)
     if args.output:
-        from dataclasses import replace
         manifest = replace(manifest, output=Path(args.output).resolve())
     if args.limit:
-        from dataclasses import replace
         manifest = replace(manifest, limit=args.limit)
     progress = None if not args.no_progress else False
-    summary = run_batch(manifest, progress=progress)
+    use_ray = args.ray is not None
+    summary = run_batch(manifest, workers=args.workers, progress=progress, use_ray=use_ray,
+                        ray_address=args.ray or None, gpus=args.gpus, gpus_per_actor=args.ray_gpus,
+                        resume=not args.no_resume)
     print(summary.text())
     print(f"outputs: {manifest.output}")
     return summary.exit_code
@@ -54,6 +57,14 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--output", help="override the manifest's output root")
     b.add_argument("--limit", type=int, help="process at most this many image sets")
     b.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
+    b.add_argument("--workers", type=int, default=1,
+                   help="worker processes, each with its own GL context (with --ray: actors; 0 = one per CPU)")
+    b.add_argument("--gpus", type=int, default=0, help="spread local workers over this many GPUs (EGL devices)")
+    b.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run as Ray actors: on a local Ray instance, or the cluster at ADDRESS "
+                        "(needs pip install 'synthcompose[ray]')")
+    b.add_argument("--ray-gpus", type=float, default=0.0, help="GPUs per Ray actor (default 0)")
+    b.add_argument("--no-resume", action="store_true", help="redo image sets an earlier run completed")
     b.set_defaults(func=_batch)
     s = sub.add_parser("make-sample", help="generate synthetic image sets in Cityscapes format")
     s.add_argument("out", help="Cityscapes root to write")

@@ -20,13 +20,17 @@ _INSTALL_HINT = ("install Mesa's EGL (Debian/Ubuntu: apt-get install libegl1 lib
                  "libgl1-mesa-dri) or a GPU driver with EGL")
 
 
-def create_context(backend: str | None = None) -> moderngl.Context:
-    """Create a standalone OpenGL >= 3.3 core context; the only place contexts are made."""
+def create_context(backend: str | None = None, device: int | None = None) -> moderngl.Context:
+    """Create a standalone OpenGL >= 3.3 core context; the only place contexts are made.
+
+    ``device``: EGL device index (one GPU of several; default: the first usable one).
+    """
     backend = backend or os.environ.get("SYNTHCOMPOSE_GL_BACKEND", "egl")
     if backend not in BACKENDS:
         raise GLContextError(f"unknown GL backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    extra = {"device_index": int(device)} if device is not None and backend == "egl" else {}
     try:
-        return moderngl.create_standalone_context(backend=backend, require=330)
+        return moderngl.create_standalone_context(backend=backend, require=330, **extra)
     except Exception as exc:
         raise GLContextError(f"cannot create an OpenGL context with the {backend} backend ({exc}); "
                              f"{_INSTALL_HINT}") from None
@@ -50,8 +54,8 @@ class GLContext:
     current. :meth:`release` frees programs, buffers and textures in reverse order.
     """
 
-    def __init__(self, backend: str | None = None) -> None:
-        self.ctx = create_context(backend)
+    def __init__(self, backend: str | None = None, device: int | None = None) -> None:
+        self.ctx = create_context(backend, device)
         self._programs: dict[str, moderngl.Program] = {}
         self._owned: list = []
         # bound before a framebuffer is released, so no deleted framebuffer stays current

@@ -4,6 +4,8 @@ Relative paths are relative to the manifest file's folder.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -111,6 +113,17 @@ class Manifest:
     rules: PlacementRules
     lighting: Lighting
     raw: dict  # the manifest as given, recorded with the outputs
+
+    @property
+    def config_hash(self) -> str:
+        """sha256 of what decides the outputs (the manifest less its output root and limit, the
+        tool's version): a resumed batch keeps an image set's outputs only when its record
+        carries the same."""
+        from . import __version__
+
+        deciding = {k: v for k, v in self.raw.items() if k not in ("output", "limit")}
+        text = json.dumps({"manifest": deciding, "version": __version__}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()
 
 
 def _where(err: jsonschema.ValidationError) -> str:

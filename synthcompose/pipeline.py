@@ -1,28 +1,27 @@
-"""The batch: dataset -> geometry -> placement -> render -> compose -> write, per image set.
+"""One image set through every stage: dataset -> geometry -> placement -> render -> compose -> write.
 
-One :class:`Pipeline` holds the GL context, renderer and composer and processes image sets
-one after the other. A bad image set is reported and skipped; the batch goes on.
+A :class:`Pipeline` holds one GL context, renderer and composer and processes image sets
+one after the other; :mod:`synthcompose.batch` decides which, in which process. A bad image
+set is reported (a ``failed`` outcome), never raised.
 """
 from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 import zlib
 from collections import Counter
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Iterator
 
 import numpy as np
 
 from . import __version__
 from .compose import Composer, SceneLayers
-from .dataset import ImageSetId, find_image_sets, read_image_set
-from .errors import InputError, SynthComposeError
-from .frequency import count_classes, object_weights
+from .dataset import ImageSetId, read_image_set
+from .errors import SynthComposeError
+from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
@@ -46,6 +45,7 @@ class Outcome:
     reason: str | None = None
     objects: int = 0
     timings: dict[str, float] = field(default_factory=dict)
+    resumed: bool = False  # complete from an earlier run with the same configuration
 
 
 def image_set_rng(seed: int, ident: ImageSetId) -> np.random.Generator:
@@ -107,13 +107,17 @@ def _matrix(m: np.ndarray) -> list[list[float]]:
 class Pipeline:
     """Processes image sets of one manifest with one GL context."""
 
-    def __init__(self, manifest: Manifest, gl_backend: str | None = None) -> None:
+    def __init__(self, manifest: Manifest, weights: np.ndarray | None = None, gl_backend: str | None = None,
+                 gl_device: int | None = None) -> None:
+        """``weights``: probability of choosing each manifest object (default: their weights);
+        ``gl_device``: EGL device index (a GPU) for this pipeline's context."""
         self.manifest = manifest
-        self.gl = GLContext(gl_backend)
+        self.gl = GLContext(gl_backend, device=gl_device)
         self.renderer = Renderer(self.gl)
         self.composer = Composer(self.gl)
-        self.class_counts: dict[str, int] | None = None
-        self._weights = object_weights([o.weight for o in manifest.objects], [], "weights")
+        if weights is None:
+            weights = object_weights([o.weight for o in manifest.objects], [], "weights")
+        self._weights = np.asarray(weights, float)
 
     def close(self) -> None:
         self.gl.release()
@@ -123,20 +127,6 @@ class Pipeline:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-    def image_sets(self) -> list[ImageSetId]:
-        """The image sets the manifest selects; in "balance" mode also counts the dataset's
-        classes (over all selected sets, so every worker and every run agrees)."""
-        m = self.manifest
-        ids = find_image_sets(m.dataset, m.splits, m.cities, m.frames)
-        ids = ids[: m.limit] if m.limit else ids
-        if m.object_choice == "balance" and self.class_counts is None:
-            self.class_counts = count_classes(m.dataset, ids)
-            self._weights = object_weights([o.weight for o in m.objects], [o.class_name for o in m.objects],
-                                           "balance", self.class_counts)
-            log.info("class counts %s -> object probabilities %s", self.class_counts,
-                     {o.name: round(float(p), 3) for o, p in zip(m.objects, self._weights)})
-        return ids
 
     def process(self, ident: ImageSetId) -> Outcome:
         """Run every stage for one image set; never raises for bad input (returns ``failed``)."""
@@ -185,6 +175,7 @@ class Pipeline:
         record = {
             "synthcompose_version": __version__,
             "image_set": ident.key,
+            "config_sha256": m.config_hash,
             "seed": m.seed,
             "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
                                                                    "camera")},
@@ -260,71 +251,3 @@ class Pipeline:
             record["status"] = "done"
             write_record(m.output, ident, record)
         return Outcome(ident.key, "done", None, len(placed), timings)
-
-
-@dataclass
-class Summary:
-    outcomes: list[Outcome] = field(default_factory=list)
-    wall_s: float = 0.0
-    class_counts: dict[str, int] | None = None  # "balance" mode: the dataset's objects per class
-
-    def count(self, status: str) -> int:
-        return sum(o.status == status for o in self.outcomes)
-
-    @property
-    def exit_code(self) -> int:
-        return 1 if self.count("failed") else 0
-
-    def stage_means(self) -> dict[str, float]:
-        done = [o for o in self.outcomes if o.status == "done"]
-        return {s: (sum(o.timings.get(s, 0.0) for o in done) / len(done) if done else 0.0) for s in STAGES}
-
-    def to_dict(self) -> dict:
-        return {
-            "done": self.count("done"), "skipped": self.count("skipped"), "failed": self.count("failed"),
-            "wall_s": round(self.wall_s, 3),
-            "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
-            "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
-                         for o in self.outcomes if o.status != "done"],
-        } | ({"class_counts": self.class_counts} if self.class_counts is not None else {})
-
-    def text(self) -> str:
-        lines = [f"{self.count('done')} done, {self.count('skipped')} skipped, {self.count('failed')} failed "
-                 f"in {self.wall_s:.1f} s"]
-        means = self.stage_means()
-        if self.count("done"):
-            lines.append("mean per image set: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in means.items()))
-        for o in self.outcomes:
-            if o.status != "done":
-                lines.append(f"  {o.status}: {o.key}: {o.reason}")
-        return "\n".join(lines)
-
-
-def run_batch(manifest: Manifest, progress: bool | None = None, gl_backend: str | None = None) -> Summary:
-    """Process every image set the manifest selects; writes ``summary.json`` in the output root."""
-    from tqdm import tqdm
-
-    from .fileio import write_json
-
-    t0 = time.perf_counter()
-    summary = Summary()
-    with Pipeline(manifest, gl_backend) as pipe:
-        ids = pipe.image_sets()
-        summary.class_counts = pipe.class_counts
-        log.info("%d image sets from %s -> %s (GL: %s)", len(ids), manifest.dataset, manifest.output,
-                 pipe.gl.renderer_name)
-        show_bar = sys.stderr.isatty() if progress is None else progress
-        bar = tqdm(ids, unit="set", disable=not show_bar, dynamic_ncols=True)
-        for i, ident in enumerate(bar, start=1):
-            outcome = pipe.process(ident)
-            summary.outcomes.append(outcome)
-            if outcome.status != "done":
-                log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
-            if not show_bar:
-                log.info("[%d/%d] %s %s (%.2f s)", i, len(ids), outcome.status, outcome.key,
-                         sum(outcome.timings.values()))
-            else:
-                bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
-    summary.wall_s = time.perf_counter() - t0
-    write_json(manifest.output / "summary.json", summary.to_dict())
-    return summary

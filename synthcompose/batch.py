@@ -1,0 +1,382 @@
+"""The batch: which image sets, in which process, with progress, resume and a summary.
+
+* selection: the manifest's splits/cities/frames/limit; object choice weights (in
+  "balance" mode the class counts are taken once, here, and handed to every worker);
+* the output root is locked (``.synthcompose.lock``, an ``flock`` the kernel drops when
+  the process dies): a second batch on the same root is refused with a clear message;
+* resume: an image set whose record exists with the same configuration hash is complete
+  (records are written last) and is not redone; stale ``*.part`` files of a killed run
+  are removed;
+* engines: in-process (``workers=1``), ``workers=N`` spawned processes (never forked: each
+  makes its own EGL context, optionally on its own GPU), or Ray actors (``ray_address``).
+  A worker that dies takes only its current image set down: it is reported and replaced.
+  Every image set's randomness depends on (seed, image set) only, so the outputs do not
+  depend on the engine, the worker count or the order.
+"""
+from __future__ import annotations
+
+import fcntl
+import logging
+import multiprocessing as mp
+import os
+import queue
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+import numpy as np
+
+from .dataset import ImageSetId, find_image_sets
+from .errors import SynthComposeError
+from .fileio import read_json, write_json
+from .frequency import count_classes, object_weights
+from .manifest import Manifest
+from .pipeline import STAGES, Outcome, Pipeline
+
+log = logging.getLogger("synthcompose")
+
+LOCK_NAME = ".synthcompose.lock"
+
+
+class BatchError(SynthComposeError):
+    """The batch as a whole cannot run (the message says why)."""
+
+
+@dataclass
+class Summary:
+    outcomes: list[Outcome] = field(default_factory=list)
+    wall_s: float = 0.0
+    workers: int = 1
+    engine: str = "local"
+    class_counts: dict[str, int] | None = None  # "balance" mode: the dataset's objects per class
+
+    def count(self, status: str) -> int:
+        return sum(o.status == status for o in self.outcomes)
+
+    @property
+    def resumed(self) -> int:
+        return sum(bool(o.resumed) for o in self.outcomes)
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.count("failed") else 0
+
+    def stage_means(self) -> dict[str, float]:
+        done = [o for o in self.outcomes if o.status == "done" and not o.resumed]
+        return {s: (sum(o.timings.get(s, 0.0) for o in done) / len(done) if done else 0.0) for s in STAGES}
+
+    def to_dict(self) -> dict:
+        out = {
+            "done": self.count("done"), "skipped": self.count("skipped"), "failed": self.count("failed"),
+            "resumed": self.resumed, "engine": self.engine, "workers": self.workers,
+            "wall_s": round(self.wall_s, 3),
+            "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
+            "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
+                         for o in self.outcomes if o.status != "done"],
+        }
+        if self.class_counts is not None:
+            out["class_counts"] = self.class_counts
+        return out
+
+    def text(self) -> str:
+        lines = [f"{self.count('done')} done, {self.count('skipped')} skipped, {self.count('failed')} failed "
+                 f"({self.resumed} already complete) in {self.wall_s:.1f} s with {self.workers} "
+                 f"{self.engine} worker(s)"]
+        if any(o.status == "done" and not o.resumed for o in self.outcomes):
+            lines.append("mean per image set: " + ", ".join(f"{k} {v * 1000:.0f} ms"
+                                                            for k, v in self.stage_means().items()))
+        for o in self.outcomes:
+            if o.status != "done":
+                lines.append(f"  {o.status}: {o.key}: {o.reason}")
+        return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------- selection, resume
+def select(manifest: Manifest) -> tuple[list[ImageSetId], np.ndarray, dict[str, int] | None]:
+    """(image sets to consider, object choice probabilities, class counts or None)."""
+    m = manifest
+    ids = find_image_sets(m.dataset, m.splits, m.cities, m.frames)
+    ids = ids[: m.limit] if m.limit else ids
+    counts = None
+    if m.object_choice == "balance":
+        counts = count_classes(m.dataset, ids)
+        weights = object_weights([o.weight for o in m.objects], [o.class_name for o in m.objects], "balance", counts)
+        log.info("class counts %s -> object probabilities %s", counts,
+                 {o.name: round(float(p), 3) for o, p in zip(m.objects, weights)})
+    else:
+        weights = object_weights([o.weight for o in m.objects], [], "weights")
+    return ids, weights, counts
+
+
+def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
+    """The outcome of an image set a previous run finished with this configuration, or None."""
+    path = ident.path(manifest.output, "record")
+    if not path.is_file():
+        return None
+    try:
+        record = read_json(path)
+    except SynthComposeError:
+        return None
+    if not isinstance(record, dict) or record.get("config_sha256") != manifest.config_hash:
+        return None
+    if record.get("status") == "done":
+        return Outcome(ident.key, "done", None, len(record.get("objects", [])), resumed=True)
+    if record.get("status") == "no valid placement":
+        return Outcome(ident.key, "skipped", "no valid placement (earlier run)", resumed=True)
+    return None
+
+
+def remove_partials(out_root: Path) -> int:
+    """Delete temporary files a killed run left (``.<name>.*.part``); returns how many."""
+    n = 0
+    if out_root.is_dir():
+        for p in out_root.rglob(".*.part"):
+            p.unlink(missing_ok=True)
+            n += 1
+    return n
+
+
+class OutputLock:
+    """Exclusive lock on an output root for the duration of a batch."""
+
+    def __init__(self, out_root: Path) -> None:
+        self.path = Path(out_root) / LOCK_NAME
+        self._fd: int | None = None
+
+    def __enter__(self) -> "OutputLock":
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise BatchError(f"{self.path.parent}: output root is not writable ({exc.strerror})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+            os.close(fd)
+            raise BatchError(f"{self.path.parent}: another batch is writing to this output root ({holder}); "
+                             "wait for it or choose another output") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} since {time.strftime('%Y-%m-%d %H:%M:%S')}\n".encode(), 0)
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._fd is not None:
+            os.ftruncate(self._fd, 0)
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+            os.close(self._fd)
+            self._fd = None
+
+
+# --------------------------------------------------------------------------------- engines
+def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], gl_device: int | None) -> Iterator[Outcome]:
+    with Pipeline(manifest, weights, gl_device=gl_device) as pipe:
+        log.info("GL: %s", pipe.gl.renderer_name)
+        for ident in todo:
+            yield pipe.process(ident)
+
+
+def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, tasks, results, wid: int) -> None:
+    """A spawned worker: its own GL context; takes image sets until it gets None."""
+    try:
+        pipe = Pipeline(manifest, weights, gl_device=gl_device)
+    except BaseException as exc:  # noqa: BLE001 - report, the parent decides
+        results.put(("init-failed", wid, f"{type(exc).__name__}: {exc}"))
+        return
+    results.put(("ready", wid, pipe.gl.renderer_name))
+    while True:
+        ident = tasks.get()
+        if ident is None:
+            break
+        results.put(("done", wid, pipe.process(ident)))
+    pipe.close()
+
+
+def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
+                  gpus: int) -> Iterator[Outcome]:
+    """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
+    ctx = mp.get_context("spawn")
+    results = ctx.Queue()
+    pending = list(reversed(todo))
+    slots: dict[int, dict] = {}
+    next_id = 0
+    restarts = 0
+
+    def start() -> None:
+        nonlocal next_id
+        wid = next_id
+        next_id += 1
+        tasks = ctx.Queue()
+        device = (wid % gpus) if gpus else None
+        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, tasks, results, wid),
+                           name=f"synthcompose-worker-{wid}", daemon=True)
+        proc.start()
+        slots[wid] = {"proc": proc, "tasks": tasks, "current": None, "ready": False}
+
+    def feed(wid: int) -> None:
+        slot = slots[wid]
+        if pending:
+            slot["current"] = pending.pop()
+            slot["tasks"].put(slot["current"])
+        else:
+            slot["current"] = None
+            slot["tasks"].put(None)
+
+    for _ in range(min(workers, len(todo))):
+        start()
+    outstanding = len(todo)
+    try:
+        while outstanding:
+            try:
+                kind, wid, payload = results.get(timeout=0.5)
+            except queue.Empty:
+                for wid, slot in list(slots.items()):
+                    proc = slot["proc"]
+                    if proc.is_alive():
+                        continue
+                    del slots[wid]
+                    if slot["current"] is not None:  # died on an image set: that one fails
+                        outstanding -= 1
+                        yield Outcome(slot["current"].key, "failed",
+                                      f"worker process died (exit code {proc.exitcode}) on this image set")
+                    if pending and restarts < 10 * workers:
+                        restarts += 1
+                        log.warning("worker %d died (exit code %s); starting a replacement", wid, proc.exitcode)
+                        start()
+                if not slots and outstanding:
+                    for ident in pending:
+                        yield Outcome(ident.key, "failed", "no worker left to process it")
+                    return
+                continue
+            if kind == "init-failed":
+                raise BatchError(f"a worker could not start: {payload}")
+            if kind == "ready":
+                if wid == 0:
+                    log.info("GL: %s", payload)
+                slots[wid]["ready"] = True
+                feed(wid)
+            elif kind == "done":
+                outstanding -= 1
+                yield payload
+                if wid in slots:
+                    feed(wid)
+    finally:
+        for slot in slots.values():
+            try:
+                slot["tasks"].put(None)
+            except (OSError, ValueError):
+                pass
+        for slot in slots.values():
+            slot["proc"].join(timeout=10)
+            if slot["proc"].is_alive():
+                slot["proc"].terminate()
+
+
+def _ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
+                address: str | None, gpus_per_actor: float) -> Iterator[Outcome]:
+    """Ray actors, one GL context each (GPUs as Ray resources); a dead actor is replaced."""
+    try:
+        import ray
+    except ImportError:
+        raise BatchError("--ray needs Ray: pip install 'synthcompose[ray]'") from None
+    started_here = not ray.is_initialized()
+    if started_here:
+        ray.init(address=address or None, include_dashboard=False, logging_level=logging.WARNING,
+                 log_to_driver=False)
+    try:
+        Actor = ray.remote(num_cpus=1, num_gpus=gpus_per_actor)(_RayWorker)
+        n = max(1, min(workers or int(ray.cluster_resources().get("CPU", 1)), len(todo)))
+        actors = [Actor.remote(manifest, weights) for _ in range(n)]
+        pending = list(reversed(todo))
+        running: dict = {}
+
+        def submit(actor) -> None:
+            if pending:
+                ident = pending.pop()
+                running[actor.process.remote(ident)] = (actor, ident)
+
+        for actor in actors:
+            submit(actor)
+        while running:
+            ready, _ = ray.wait(list(running), num_returns=1)
+            ref = ready[0]
+            actor, ident = running.pop(ref)
+            try:
+                yield ray.get(ref)
+            except ray.exceptions.RayError as exc:
+                yield Outcome(ident.key, "failed", f"Ray worker failed on this image set: {type(exc).__name__}")
+                ray.kill(actor, no_restart=True)
+                actor = Actor.remote(manifest, weights)
+            submit(actor)
+    finally:
+        if started_here:
+            ray.shutdown()
+
+
+class _RayWorker:
+    """Body of a Ray actor: one Pipeline (one GL context) for its lifetime."""
+
+    def __init__(self, manifest: Manifest, weights: np.ndarray) -> None:
+        logging.basicConfig(level=logging.WARNING)
+        self.pipe = Pipeline(manifest, weights)
+
+    def process(self, ident: ImageSetId) -> Outcome:
+        return self.pipe.process(ident)
+
+
+# -------------------------------------------------------------------------------- the batch
+def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None, ray_address: str | None = None,
+              use_ray: bool = False, gpus: int = 0, gpus_per_actor: float = 0.0, resume: bool = True,
+              on_outcome: Callable[[Outcome], None] | None = None) -> Summary:
+    """Process every image set the manifest selects; writes ``summary.json`` in the output root.
+
+    ``workers``: processes (or Ray actors; 0 = one per Ray CPU); ``gpus``: spread the local
+    workers over this many EGL devices; ``resume``: keep image sets a previous run completed.
+    """
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    engine = "ray" if use_ray else ("local" if workers <= 1 else "process")
+    summary = Summary(workers=max(workers, 1), engine=engine)
+    with OutputLock(manifest.output):
+        stale = remove_partials(manifest.output)
+        if stale:
+            log.info("removed %d partial files left by an interrupted run", stale)
+        ids, weights, summary.class_counts = select(manifest)
+        todo = []
+        for ident in ids:
+            earlier = completed(manifest, ident) if resume else None
+            if earlier is not None:
+                summary.outcomes.append(earlier)
+            else:
+                todo.append(ident)
+        log.info("%d image sets from %s -> %s: %d to do, %d already complete", len(ids), manifest.dataset,
+                 manifest.output, len(todo), len(ids) - len(todo))
+        if use_ray:
+            stream: Iterable[Outcome] = _ray_engine(manifest, weights, todo, workers, ray_address, gpus_per_actor)
+        elif workers <= 1:
+            stream = _in_process(manifest, weights, todo, 0 if gpus else None)
+        else:
+            stream = _process_pool(manifest, weights, todo, workers, gpus)
+        show_bar = sys.stderr.isatty() if progress is None else progress
+        bar = tqdm(total=len(todo), unit="set", disable=not show_bar, dynamic_ncols=True)
+        for i, outcome in enumerate(stream, start=1):
+            summary.outcomes.append(outcome)
+            bar.update(1)
+            if on_outcome:
+                on_outcome(outcome)
+            if outcome.status != "done":
+                log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
+            if show_bar:
+                bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
+            else:
+                log.info("[%d/%d] %s %s (%.2f s)", i, len(todo), outcome.status, outcome.key,
+                         sum(outcome.timings.values()))
+        bar.close()
+        summary.outcomes.sort(key=lambda o: o.key)
+        summary.wall_s = time.perf_counter() - t0
+        write_json(manifest.output / "summary.json", summary.to_dict())
+    return summary
