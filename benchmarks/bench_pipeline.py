@@ -1,17 +1,23 @@
-"""Per-stage wall time of the pipeline at Cityscapes size, next to the PNG codec floor.
+"""End-to-end batch speed at Cityscapes size, next to the PNG codec floor.
 
-    python benchmarks/bench_pipeline.py [--count N] [--size 2048x1024] [--objects K]
+    python benchmarks/bench_pipeline.py [--count N] [--size 2048x1024] [--workers 1,2] [--scale 10,100]
 
-Generates N synthetic image sets (cached under out/bench/), then in one run measures
-(a) the codec floor: decoding the inputs and encoding the outputs of the same image sets
-with the same settings and nothing else, and (b) the pipeline per image set, split by stage
-(after one warm-up image set that compiles shaders and uploads the models).
+Generates N synthetic image sets with one car each to insert (cached under out/bench/), then
+in one run measures:
+
+* the codec floor: decoding the inputs and encoding the outputs of the same image sets with
+  the same settings and nothing else (one process, sequential);
+* the whole batch (`synthcompose batch`, fresh output root) with each worker count: wall time
+  per image set, throughput against one worker, mean time per stage, peak RSS per worker;
+* with --scale, the one-worker wall time for each batch size, to check it grows linearly.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -23,15 +29,24 @@ sys.path.insert(0, str(ROOT))
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.fileio import encode_png  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
-from synthcompose.manifest import load_manifest  # noqa: E402
-from synthcompose.pipeline import STAGES, Pipeline  # noqa: E402
 from synthcompose.sample import make_sample  # noqa: E402
 
+CAR = str(ROOT / "assets/models/openmaterial_car/vehicle_example.gltf")
 
-def codec_floor(root: Path, ids) -> float:
+
+def dataset(count: int, width: int, height: int) -> Path:
+    data = ROOT / "out" / "bench" / f"cityscapes-{width}x{height}-{count}"
+    if not (data / ".complete").exists():
+        print(f"generating {count} image sets at {width}x{height} in {data} ...", flush=True)
+        make_sample(data, count=count, width=width, height=height, seed=123)
+        (data / ".complete").touch()
+    return data
+
+
+def codec_floor(root: Path, count: int) -> float:
     """Mean seconds per image set to decode its 4 input PNGs and encode 5 output PNGs."""
     times = []
-    for ident in ids:
+    for ident in find_image_sets(root)[:count]:
         t0 = time.perf_counter()
         s = read_image_set(root, ident)
         for arr in (s.rgb, s.label_ids, s.instance_ids.astype("uint16"), colorize(s.label_ids), s.disparity):
@@ -40,48 +55,69 @@ def codec_floor(root: Path, ids) -> float:
     return statistics.mean(times)
 
 
+def run_batch(data: Path, workers: int, limit: int | None = None) -> dict:
+    """One `synthcompose batch` in a subprocess; wall time, summary, peak RSS of its processes."""
+    with tempfile.TemporaryDirectory() as tmp:
+        manifest = Path(tmp) / "bench.json"
+        manifest.write_text(json.dumps({
+            "dataset": str(data), "output": str(Path(tmp) / "out"), "seed": 1,
+            "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]}))
+        cmd = [sys.executable, "-c", _CHILD, str(manifest), str(workers), str(limit or 0)]
+        t0 = time.perf_counter()
+        out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+        wall = time.perf_counter() - t0
+        result = json.loads(out.strip().splitlines()[-1])
+        result["wall_s"] = wall
+        return result
+
+
+# the child runs the batch and reports peak RSS of itself and of its worker processes
+_CHILD = """
+import json, resource, sys, logging
+from dataclasses import replace
+from synthcompose.batch import run_batch
+from synthcompose.manifest import load_manifest
+m = load_manifest(sys.argv[1]); workers = int(sys.argv[2]); limit = int(sys.argv[3])
+if limit: m = replace(m, limit=limit)
+s = run_batch(m, workers=workers, progress=False)
+me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+print(json.dumps({"summary": s.to_dict(), "rss_self_mb": me / 1024, "rss_children_mb": kids / 1024}))
+"""
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--count", type=int, default=6)
+    ap.add_argument("--count", type=int, default=10)
     ap.add_argument("--size", default="2048x1024")
-    ap.add_argument("--objects", type=int, default=1, help="objects per image set")
+    ap.add_argument("--workers", default="1,2", help="worker counts to measure")
+    ap.add_argument("--scale", default="", help="batch sizes for the linearity check, e.g. 10,100")
     args = ap.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
-    data = ROOT / "out" / "bench" / f"cityscapes-{width}x{height}-{args.count}"
-    if not (data / ".complete").exists():
-        print(f"generating {args.count} image sets at {width}x{height} in {data} ...", flush=True)
-        make_sample(data, count=args.count, width=width, height=height, seed=123)
-        (data / ".complete").touch()
-    ids = find_image_sets(data)
-    with tempfile.TemporaryDirectory() as tmp:
-        manifest_path = Path(tmp) / "bench.json"
-        manifest_path.write_text(json.dumps({
-            "dataset": str(data), "output": str(Path(tmp) / "out"), "seed": 1, "objects_per_image": args.objects,
-            "objects": [{"name": "car", "model": str(ROOT / "assets/models/openmaterial_car/vehicle_example.gltf"),
-                         "class": "car", "size": {"length": 4.4}}]}))
-        manifest = load_manifest(manifest_path)
-        floor = codec_floor(data, ids)
-        with Pipeline(manifest) as pipe:
-            print(f"GL: {pipe.gl.renderer_name}")
-            pipe.process(ids[0])  # warm-up: shaders, model upload
-            outcomes = []
-            for ident in ids:
-                t0 = time.perf_counter()
-                o = pipe.process(ident)
-                outcomes.append((o, time.perf_counter() - t0))
-    done = [(o, t) for o, t in outcomes if o.status == "done"]
-    if not done:
-        print("no image set was done:", [o.reason for o, _ in outcomes])
-        return 1
-    print(f"\n{len(done)} image sets at {width}x{height}, {args.objects} object(s) each, one process:\n")
-    print(f"{'stage':<12}{'mean ms':>10}{'median ms':>11}")
-    for stage in STAGES:
-        vals = [o.timings.get(stage, 0.0) * 1000 for o, _ in done]
-        print(f"{stage:<12}{statistics.mean(vals):>10.0f}{statistics.median(vals):>11.0f}")
-    total = [t * 1000 for _, t in done]
-    print(f"{'total':<12}{statistics.mean(total):>10.0f}{statistics.median(total):>11.0f}")
-    print(f"\nPNG codec floor (decode 4 inputs + encode 5 outputs): {floor * 1000:.0f} ms per image set")
-    print(f"pipeline / codec floor: {statistics.mean(total) / (floor * 1000):.2f}")
+    sizes = [int(v) for v in args.scale.split(",") if v]
+    data = dataset(max([args.count] + sizes), width, height)
+    n = args.count
+    floor = codec_floor(data, n)
+    print(f"\n{n} image sets at {width}x{height}, one car each\n")
+    print(f"PNG codec floor (decode 4 inputs + encode 5 outputs, sequential): {floor * 1000:.0f} ms per image set\n")
+    rows, base = [], None
+    for workers in [int(v) for v in args.workers.split(",")]:
+        r = run_batch(data, workers, n)
+        per = r["wall_s"] / n
+        base = base or per
+        peak = r["rss_self_mb"] if workers == 1 else r["rss_children_mb"]
+        rows.append((workers, per, base / per, per / floor, peak, r["summary"]))
+    print(f"{'workers':>8}{'ms/set':>9}{'speed-up':>10}{'x floor':>9}{'peak RSS/worker MB':>20}")
+    for workers, per, speed, xf, peak, _ in rows:
+        print(f"{workers:>8}{per * 1000:>9.0f}{speed:>10.2f}{xf:>9.2f}{peak:>20.0f}")
+    print("\nmean time per stage (ms), one worker:")
+    for stage, v in rows[0][5]["mean_stage_s"].items():
+        print(f"  {stage:<10}{v * 1000:>7.0f}")
+    if sizes:
+        print("\nlinearity, one worker (wall includes start-up):")
+        for size in sizes:
+            r = run_batch(data, 1, size)
+            print(f"  {size:>5} image sets: {r['wall_s']:7.1f} s, {r['wall_s'] / size * 1000:6.0f} ms per set")
     return 0
 
 

@@ -179,8 +179,15 @@ def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId],
             yield pipe.process(ident)
 
 
-def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, tasks, results, wid: int) -> None:
+def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, tasks, results, wid: int,
+                 threads: int) -> None:
     """A spawned worker: its own GL context; takes image sets until it gets None."""
+    # share the cores between workers: llvmpipe's and OpenCV's thread pools would
+    # otherwise each take every core in every worker
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))
+    import cv2
+
+    cv2.setNumThreads(threads)
     try:
         pipe = Pipeline(manifest, weights, gl_device=gl_device)
     except BaseException as exc:  # noqa: BLE001 - report, the parent decides
@@ -211,7 +218,8 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
         next_id += 1
         tasks = ctx.Queue()
         device = (wid % gpus) if gpus else None
-        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, tasks, results, wid),
+        threads = max(1, (os.cpu_count() or 1) // workers)
+        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, tasks, results, wid, threads),
                            name=f"synthcompose-worker-{wid}", daemon=True)
         proc.start()
         slots[wid] = {"proc": proc, "tasks": tasks, "current": None, "ready": False}
@@ -377,6 +385,8 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
                          sum(outcome.timings.values()))
         bar.close()
         summary.outcomes.sort(key=lambda o: o.key)
+        from .annotations import write_coco  # annotations: COCO instances of every done record
+        write_coco(manifest.output)
         summary.wall_s = time.perf_counter() - t0
         write_json(manifest.output / "summary.json", summary.to_dict())
     return summary

@@ -18,6 +18,7 @@ from typing import Iterator
 import numpy as np
 
 from . import __version__
+from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
 from .compose import Composer, SceneLayers
 from .dataset import ImageSetId, read_image_set
 from .errors import SynthComposeError
@@ -202,8 +203,7 @@ class Pipeline:
                 spec, pl = rec["spec"], rec["result"].placement
                 allowed = [label_id(s) for s in (spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))]
                 albedo = ground_albedo(image_set.rgb, frame, pl, allowed)
-                radius = max(pl.extents[0], pl.extents[1]) * 0.5 + 0.5 * pl.extents[2] + 0.5
-                objects.append(RenderObject(rec["model"], pl.matrix, albedo, radius))
+                objects.append(RenderObject(rec["model"], pl.matrix, albedo))
                 rec["plane_albedo"] = albedo
             passes = self.renderer.render(cam, objects, m.lighting, photo=image_set.rgb)
         with _timed(timings, "compose"):
@@ -212,8 +212,10 @@ class Pipeline:
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
             composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed])
             rendered = np.zeros(len(placed) + 1, np.int64)
+            amodal = [None] * len(placed)  # annotations: amodal 2D box of each object
             if passes is not None:
                 rendered = np.bincount(passes.read("id").ravel(), minlength=len(placed) + 1)
+                amodal = amodal_boxes(passes.read("id"), passes.roi, len(placed))  # annotations
                 self.renderer.release(passes)
         with _timed(timings, "write"):
             write_outputs(m.output, ident, composed, camera_json)
@@ -248,6 +250,11 @@ class Pipeline:
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
                 })
+            # --- annotations (annotations.py): amodal boxes and visible-mask RLE in the record,
+            # gtFine polygons and gtBbox3d files; before the record, which is written last
+            annotate_objects(record, composed.visible, amodal, ident)
+            write_frame_annotations(m.output, m.dataset, ident, record, composed.visible, cam)
+            # --- end annotations
             record["status"] = "done"
             write_record(m.output, ident, record)
         return Outcome(ident.key, "done", None, len(placed), timings)

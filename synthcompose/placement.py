@@ -117,6 +117,14 @@ class PlacementResult:
 
 
 # ------------------------------------------------------------------------ geometry helpers
+def label_mask(ids) -> np.ndarray:
+    """(256,) bool lookup table of label ids: ``label_mask(ids)[labels]`` is a fast np.isin."""
+    lut = np.zeros(256, bool)
+    lut[np.asarray(ids, int)] = True
+    return lut
+
+
+
 def box_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
     """(8, 3) vehicle-frame corners of an object's box, its sides pushed out by ``grow``."""
     l, w, h = extents[0] / 2 + grow, extents[1] / 2 + grow, extents[2] + grow
@@ -264,8 +272,8 @@ def surface_edges(frame: Frame, surface_ids: np.ndarray) -> np.ndarray:
 
 def _surface_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
     lab = frame.label_ids
-    road = np.isin(lab, road_ids)
-    side = np.isin(lab, [label_id(n) for n in GROUND_LEVEL]) & ~road
+    road = label_mask(road_ids)[lab]
+    side = label_mask([label_id(n) for n in GROUND_LEVEL])[lab] & ~road
     edge = np.zeros_like(road)
     for dr, dc in ((2, 0), (-2, 0), (0, 2), (0, -2)):
         shifted = np.zeros_like(side)
@@ -400,7 +408,7 @@ class _Candidates:
     def __init__(self, frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> None:
         cloud = frame.cloud
         lo, hi = distance
-        on = np.isin(cloud.labels, allowed_ids)
+        on = label_mask(allowed_ids)[cloud.labels]
         self.allowed_mask = on
         dist = frame.ground_distance
         self.index = np.flatnonzero(on & (dist >= lo) & (dist <= hi))

@@ -73,14 +73,22 @@ class RenderObject:
     model: Model
     vehicle_from_object: np.ndarray  # (4, 4)
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
-    plane_radius: float  # half side of the square ground plane, metres
+    plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
 
-    def corners(self) -> np.ndarray:
+    def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
+        """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
+        the margin, and as far as the sun can throw the object's shadow (at most 4 m)."""
+        l, w, h = self.model.extents
+        el_sin = max(lighting.sun_direction[2], 0.05)
+        reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, 4.0)
+        return l / 2 + self.plane_margin + reach, w / 2 + self.plane_margin + reach
+
+    def corners(self, lighting: "Lighting") -> np.ndarray:
         """(16, 3) vehicle-frame corners of the object's box and of its plane."""
         l, w, h = self.model.extents
         box = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
-        r = self.plane_radius
-        plane = np.array([[sx * r, sy * r, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
+        hx, hy = self.plane_half(lighting)
+        plane = np.array([[sx * hx, sy * hy, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
         pts = np.concatenate([box, plane, plane + [0, 0, 0.01]])
         m = self.vehicle_from_object
         return pts @ m[:3, :3].T + m[:3, 3]
@@ -109,9 +117,9 @@ def crop_camera(camera: Camera, roi: Roi) -> Camera:
     return replace(camera, u0=camera.u0 - roi.x0, v0=camera.v0 - roi.y0, width=roi.width, height=roi.height)
 
 
-def roi_for(camera: Camera, objects: Sequence[RenderObject], margin: int = 4) -> Roi | None:
+def roi_for(camera: Camera, objects: Sequence[RenderObject], lighting: Lighting, margin: int = 4) -> Roi | None:
     """Screen rectangle holding every object and plane, or None when nothing is on screen."""
-    pts = np.concatenate([o.corners() for o in objects])
+    pts = np.concatenate([o.corners(lighting) for o in objects])
     optical = pts @ camera.optical_from_vehicle[:3, :3].T + camera.optical_from_vehicle[:3, 3]
     if (optical[:, 2] <= NEAR).any():
         x0, y0, x1, y1 = 0, 0, camera.width, camera.height
@@ -219,7 +227,7 @@ class Renderer:
 
     # ---------------------------------------------------------------- shadows
     def _light_matrices(self, objects: Sequence[RenderObject], lighting: Lighting):
-        pts = np.concatenate([o.corners() for o in objects])
+        pts = np.concatenate([o.corners(lighting) for o in objects])
         centre = (pts.min(0) + pts.max(0)) / 2
         half = float(np.linalg.norm(pts - centre, axis=1).max()) + 0.1
         mats = [half]
@@ -252,7 +260,7 @@ class Renderer:
         their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
         passes as ``photo`` for the compose stage.
         """
-        roi = roi or roi_for(camera, objects)
+        roi = roi or roi_for(camera, objects, lighting)
         if roi is None:
             return None
         gl, ctx = self.gl.activate(), self.gl.ctx
@@ -307,8 +315,8 @@ class Renderer:
             prog["u_is_plane"].value = True
             prog["u_has_texture"].value = False
             for obj in objects:
-                r = obj.plane_radius
-                scale = np.diag([r, r, 1.0, 1.0])
+                hx, hy = obj.plane_half(lighting)
+                scale = np.diag([hx, hy, 1.0, 1.0])
                 prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
                 prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
                 self._plane_vao.render(moderngl.TRIANGLES)

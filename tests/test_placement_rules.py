@@ -43,7 +43,7 @@ def test_real_pole_in_front_hides_the_inserted_car(gl_clean):
     m = pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]), math.atan2(ray[1], ray[0]) + math.pi / 2)
     model = load_model("builtin:box", (("length", 1.6),))
     renderer, composer = Renderer(gl_clean), Composer(gl_clean)
-    passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2), 2.0)], Lighting.daylight(), photo=arrays["rgb"])
+    passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2))], Lighting.daylight(), photo=arrays["rgb"])
     ids, id_depth = passes.read("id"), passes.read("id_depth")
     rows, cols = passes.roi.slices
     scene_layers = SceneLayers(arrays["rgb"], arrays["label_ids"], arrays["instance_ids"].astype(np.int32),

@@ -26,7 +26,7 @@ def test_rendered_box_corners_land_where_numpy_puts_them(gl_clean):
     model = load_model("builtin:box", (("length", 2.0),))
     m = pose_matrix(np.array([14.0, 1.5, 0.0]), np.array([0.03, -0.02, 1.0]), 0.4)
     renderer = Renderer(gl_clean)
-    passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2), 1.5)], Lighting.daylight())
+    passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2))], Lighting.daylight())
     ids = passes.read("id")
     rows, cols = np.nonzero(ids == 1)
     rows, cols = rows + passes.roi.y0, cols + passes.roi.x0

@@ -1,0 +1,374 @@
+"""Ground truth of the inserted objects in the formats detectors and segmenters train on.
+
+Per image set (written next to the other outputs, before the record):
+
+* ``gtFine/<split>/<city>/<name>_gtFine_polygons.json`` - Cityscapes polygons. The input's
+  polygons (when it has a polygons file) are copied, then one entry per visible part of
+  each inserted object is appended: Cityscapes draws polygons in file order, later ones on
+  top, and the inserted objects are in front of whatever they cover.
+* ``gtBbox3d/<split>/<city>/<name>_gtBbox3d.json`` - Cityscapes 3D boxes, the layout
+  cityscapesScripts' ``CsBbox3d`` / ``Box3dImageTransform`` and ``evalObjectDetection3d``
+  read (the input's own ``gtBbox3d`` objects are copied first when it has that file).
+
+Per batch: ``coco_instances.json`` in the output root, COCO instances of the inserted
+objects of every complete image set under the root, rebuilt from the records alone (each
+object record carries its visible mask as COCO RLE), so a resumed batch gets a complete
+file too.
+
+Conventions
+-----------
+* 2D boxes in records: ``[x0, y0, x1, y1]`` in pixels, pixel edges, x1/y1 exclusive (the
+  box of pixel columns x0..x1-1). In Cityscapes/COCO files: ``[x0, y0, w, h]`` with
+  w = x1 - x0, h = y1 - y0 of the same box.
+* Masks are (H, W) bool arrays of full-frame pixels; the *visible* (modal) mask is where
+  the object is seen after occlusion by the real scene and the other inserted objects
+  (:attr:`Composed.visible`), the *amodal* mask its whole rendered silhouette
+  (``RenderPasses.read("id")``), both sampled at pixel centres.
+* Polygons: vertices at pixel centres (integer (x, y) = column, row), the way cityscapesScripts
+  rasterises them (PIL ``ImageDraw.polygon``, boundary included; ``cv2.fillPoly`` agrees).
+* 3D: vehicle frame V (ISO 8855, metres, see :mod:`synthcompose.camera`); the box centre is
+  the centre of the object's box (its footprint centre raised by half its height), the
+  rotation the quaternion [w, x, y, z] of V <- object, dimensions [length, width, height].
+"""
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Sequence
+
+import cv2
+import numpy as np
+from cityscapesscripts.helpers.labels import name2label
+from pycocotools import mask as mask_utils
+from scipy.spatial.transform import Rotation
+
+from .camera import Camera
+from .dataset import ImageSetId
+from .errors import InputError
+from .fileio import read_json, write_json
+from .placement import box_corners
+from .render import Roi
+
+log = logging.getLogger("synthcompose")
+
+Box = list[int]  # [x0, y0, x1, y1], pixel edges, x1/y1 exclusive
+Polygon = list[list[int]]  # [[x, y], ...] pixel centres
+
+COCO_NAME = "coco_instances.json"
+
+
+# ------------------------------------------------------------------------------- 2D boxes
+def mask_box(mask: np.ndarray, x_offset: int = 0, y_offset: int = 0) -> Box | None:
+    """[x0, y0, x1, y1] of the True pixels of an (H, W) mask (+ offsets), or None if empty."""
+    cols = np.flatnonzero(mask.any(axis=0))
+    if cols.size == 0:
+        return None
+    rows = np.flatnonzero(mask.any(axis=1))
+    return [int(cols[0]) + x_offset, int(rows[0]) + y_offset, int(cols[-1]) + 1 + x_offset,
+            int(rows[-1]) + 1 + y_offset]
+
+
+def amodal_boxes(ids: np.ndarray, roi: Roi, count: int) -> list[Box | None]:
+    """Amodal 2D box of each object 1..count in the full frame.
+
+    ``ids`` (roi.height, roi.width) uint32: the render's ``id`` pass (object index 1..K of the
+    full silhouette at each pixel centre, before occlusion by the real scene). The ROI lies
+    inside the image, so the boxes are clipped to it. Returns a list of length ``count``.
+    """
+    return [mask_box(ids == k, roi.x0, roi.y0) for k in range(1, count + 1)]
+
+
+def xywh(box: Box) -> list[int]:
+    """[x0, y0, x1, y1] -> [x0, y0, w, h]."""
+    return [box[0], box[1], box[2] - box[0], box[3] - box[1]]
+
+
+# ------------------------------------------------------------------------------------ RLE
+def encode_rle(mask: np.ndarray) -> dict[str, Any]:
+    """COCO compressed RLE of an (H, W) mask: {"size": [H, W], "counts": str}."""
+    rle = mask_utils.encode(np.asfortranarray(mask.astype(np.uint8)))
+    return {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
+
+
+def decode_rle(rle: dict[str, Any]) -> np.ndarray:
+    """Inverse of :func:`encode_rle`: (H, W) bool."""
+    return mask_utils.decode({"size": list(rle["size"]), "counts": rle["counts"].encode("ascii")}).astype(bool)
+
+
+# ------------------------------------------------------------------------------- polygons
+def remove_holes(mask: np.ndarray) -> np.ndarray:
+    """Copy of an (H, W) mask without holes: each hole is filled or opened, whichever
+    changes fewer pixels.
+
+    A hole is a region of background pixels (4-connected, as OpenCV's contour tracing sees
+    background) enclosed by the mask. Holes are taken top-most first. A hole is *opened* by
+    a one-pixel vertical cut: the mask pixels straight above its top-most pixel are cleared
+    up to the first background pixel, which is higher than the hole's top and already joined
+    to the outside (holes above were treated first), so the outer contours of the result
+    describe it exactly. When the hole has no more pixels than that cut, it is *filled*
+    instead (a speck of real scene in front of the object is not worth a cut across it).
+    Returns (H, W) uint8 0/1.
+    """
+    m = np.pad(mask.astype(np.uint8), 1)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - m, connectivity=4)
+    if n <= 2:  # background is one region: no holes
+        return m[1:-1, 1:-1].copy()
+    outside = labels[0, 0]
+    # top-most, then left-most pixel of each background component: its first in row-major order
+    _, first = np.unique(labels.ravel(), return_index=True)
+    width = m.shape[1]
+    for label in sorted(range(n), key=lambda i: first[i]):
+        if label == outside:
+            continue
+        top, x = divmod(int(first[label]), width)
+        y = top - 1
+        while m[y, x]:  # the pad row guarantees a stop
+            y -= 1
+        if stats[label, cv2.CC_STAT_AREA] <= top - 1 - y:
+            x0, y0, w, h = (int(v) for v in stats[label, :4])
+            box = labels[y0:y0 + h, x0:x0 + w] == label
+            m[y0:y0 + h, x0:x0 + w][box] = 1
+        else:
+            m[y + 1:top, x] = 0
+    return m[1:-1, 1:-1].copy()
+
+
+#: parts of fewer pixels are left out of the polygons: specks where a real occluder has no
+#: disparity and the object shows through, not parts an annotator would draw
+MIN_PART_PIXELS = 4
+
+
+def mask_polygons(mask: np.ndarray, min_part_pixels: int = MIN_PART_PIXELS) -> list[Polygon]:
+    """Polygons of an (H, W) mask, one per 8-connected part, holes removed (:func:`remove_holes`).
+
+    Vertices are pixel centres of the part's boundary (OpenCV outer contours, straight runs
+    reduced to their ends), so filling them with the boundary included gives back the mask
+    with its holes removed and without its parts of fewer than ``min_part_pixels`` pixels.
+    A part one pixel thick may trace to two vertices: the last is repeated so every polygon
+    has at least three (drawable by PIL and cv2). Ordered by the parts' top-left vertex.
+    """
+    solid = remove_holes(mask)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(solid, connectivity=8)
+    small = np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_part_pixels)
+    small = small[small != 0]  # label 0 is the background
+    if small.size:
+        solid[np.isin(labels, small)] = 0
+    contours, _ = cv2.findContours(solid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    polys = []
+    for c in contours:
+        pts = [[int(x), int(y)] for x, y in c.reshape(-1, 2)]
+        while len(pts) < 3:
+            pts.append(list(pts[-1]))
+        polys.append(pts)
+    polys.sort(key=lambda p: (min(q[1] for q in p), min(q[0] for q in p)))
+    return polys
+
+
+def rasterize_polygons(polygons: Sequence[Polygon], shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool: the pixels ``cv2.fillPoly`` fills for the polygons (for checks)."""
+    out = np.zeros(shape, np.uint8)
+    for poly in polygons:
+        cv2.fillPoly(out, [np.asarray(poly, np.int32).reshape(-1, 1, 2)], 1)
+    return out.astype(bool)
+
+
+def polygons_document(source: Path | None, objects: Sequence[dict], visible: np.ndarray) -> dict[str, Any]:
+    """The gtFine polygons JSON of an augmented image set.
+
+    ``source``: the input set's ``gtFine_polygons.json`` or None; its objects are copied
+    first (any extra top-level keys are kept). ``objects``: the record's object entries
+    (``index``, ``class``); ``visible`` (H, W) uint8: index of the object seen at each pixel.
+    Each visible part of an object becomes one ``{"label", "polygon"}`` entry.
+    """
+    h, w = visible.shape
+    doc: dict[str, Any] = {"imgHeight": h, "imgWidth": w, "objects": []}
+    if source is not None:
+        data = read_json(source)
+        if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
+            raise InputError(source, "polygons JSON must be an object with an 'objects' list")
+        if (data.get("imgWidth"), data.get("imgHeight")) != (w, h):
+            raise InputError(source, f"polygons JSON is for {data.get('imgWidth')}x{data.get('imgHeight')} "
+                                     f"but the image is {w}x{h}")
+        doc = dict(data) | {"objects": list(data["objects"])}
+    for obj in objects:
+        for poly in mask_polygons(visible == obj["index"]):
+            doc["objects"].append({"label": obj["class"], "polygon": poly})
+    return doc
+
+
+# ------------------------------------------------------------------------------- 3D boxes
+def bbox3d_path(root: Path, ident: ImageSetId) -> Path:
+    """``root/gtBbox3d/<split>/<city>/<name>_gtBbox3d.json`` (Cityscapes 3D layout)."""
+    return Path(root) / "gtBbox3d" / ident.split / ident.city / f"{ident.name}_gtBbox3d.json"
+
+
+def sensor_T_iso8855(camera: Camera) -> np.ndarray:
+    """(3, 4) [R^T | -R^T t]: vehicle V (ISO 8855) -> camera C (origin at the optical centre,
+    axes as V), the ``sensor_T_ISO_8855`` of Cityscapes 3D (p_C = T @ [p_V, 1])."""
+    r = camera.rotation
+    return np.hstack([r.T, (-r.T @ camera.position)[:, None]])
+
+
+def sensor_block(camera: Camera) -> dict[str, Any]:
+    """The ``sensor`` object of a gtBbox3d file for this camera."""
+    return {"sensor_T_ISO_8855": [[float(v) for v in row] for row in sensor_T_iso8855(camera)],
+            "fx": camera.fx, "fy": camera.fy, "u0": camera.u0, "v0": camera.v0, "baseline": camera.baseline}
+
+
+def box3d(vehicle_from_object: np.ndarray, extents: Sequence[float]) -> dict[str, list[float]]:
+    """Cityscapes 3D box of an object: centre (V, metres), dimensions [l, w, h] (metres) and
+    rotation quaternion [w, x, y, z] (V <- object, w >= 0).
+
+    ``vehicle_from_object`` (4, 4): object frame (x forward, y left, z up, origin at the
+    footprint centre on the ground) -> V; ``extents`` (l, w, h) of the object's box.
+    """
+    m = np.asarray(vehicle_from_object, float)
+    l, w, h = (float(e) for e in extents)
+    centre = m[:3, :3] @ np.array([0.0, 0.0, h / 2]) + m[:3, 3]
+    x, y, z, qw = Rotation.from_matrix(m[:3, :3]).as_quat()
+    q = np.array([qw, x, y, z]) * (1.0 if qw >= 0 else -1.0)
+    return {"center": [round(float(v), 4) for v in centre], "dimensions": [round(v, 4) for v in (l, w, h)],
+            "rotation": [round(float(v), 8) + 0.0 for v in q]}  # + 0.0: no -0.0
+
+
+def box3d_corners(vehicle_from_object: np.ndarray, extents: Sequence[float]) -> np.ndarray:
+    """(8, 3) corners of the object's box in V, metres."""
+    return box_corners(np.asarray(vehicle_from_object, float), extents)
+
+
+def projected_extent(camera: Camera, vehicle_from_object: np.ndarray, extents: Sequence[float]) -> np.ndarray | None:
+    """[u_min, v_min, u_max, v_max] of the box corners projected (pixel-centre coordinates,
+    not clipped), or None when a corner is not in front of the camera."""
+    pts = box3d_corners(vehicle_from_object, extents)
+    m = camera.optical_from_vehicle
+    opt = pts @ m[:3, :3].T + m[:3, 3]
+    if (opt[:, 2] <= 0.1).any():
+        return None
+    uv = camera.project(opt)
+    return np.array([uv[:, 0].min(), uv[:, 1].min(), uv[:, 0].max(), uv[:, 1].max()])
+
+
+def truncation(camera: Camera, vehicle_from_object: np.ndarray, extents: Sequence[float]) -> float:
+    """Share of the projected 3D box's 2D extent outside the image (0 = whole object inside).
+
+    Pixel centres 0..W-1 cover [-0.5, W - 0.5). 1.0 when part of the box is behind the camera.
+    """
+    ext = projected_extent(camera, vehicle_from_object, extents)
+    if ext is None:
+        return 1.0
+    full = max(ext[2] - ext[0], 1e-9) * max(ext[3] - ext[1], 1e-9)
+    cw = max(min(ext[2], camera.width - 0.5) - max(ext[0], -0.5), 0.0)
+    ch = max(min(ext[3], camera.height - 0.5) - max(ext[1], -0.5), 0.0)
+    return round(float(np.clip(1.0 - cw * ch / full, 0.0, 1.0)), 4)
+
+
+def bbox3d_document(camera: Camera, objects: Sequence[dict], source: Path | None = None) -> dict[str, Any]:
+    """The gtBbox3d JSON of an augmented image set.
+
+    ``objects``: the record's object entries (with ``bbox_2d``, ``bbox_2d_amodal``, pose,
+    extents); those seen in no pixel are left out. ``source``: the input set's own
+    gtBbox3d file or None; its ``objects`` and ``ignore`` entries are copied first,
+    unchanged (their modal boxes do not account for the inserted objects).
+    """
+    doc: dict[str, Any] = {"imgWidth": camera.width, "imgHeight": camera.height, "sensor": sensor_block(camera),
+                           "objects": [], "ignore": []}
+    if source is not None:
+        data = read_json(source)
+        if not isinstance(data, dict) or not isinstance(data.get("objects", []), list):
+            raise InputError(source, "gtBbox3d JSON must be an object with an 'objects' list")
+        doc["objects"] = list(data.get("objects", []))
+        doc["ignore"] = list(data.get("ignore", []))
+    for obj in objects:
+        if obj.get("bbox_2d") is None or obj.get("bbox_2d_amodal") is None:
+            continue
+        pose = np.array(obj["pose"]["vehicle"]["matrix"], float)
+        doc["objects"].append({
+            "2d": {"modal": xywh(obj["bbox_2d"]), "amodal": xywh(obj["bbox_2d_amodal"])},
+            "3d": box3d(pose, obj["extents_m"]) | {"type": obj["name"], "format": "CRS_ISO8855"},
+            "occlusion": obj["occluded_fraction"],
+            "truncation": truncation(camera, pose, obj["extents_m"]),
+            "instanceId": obj["instance_id"],
+            "label": obj["class"],
+            "score": 1.0,
+        })
+    return doc
+
+
+# ------------------------------------------------------------------ per image set: records
+def annotate_objects(record: dict[str, Any], visible: np.ndarray, amodal: Sequence[Box | None],
+                     ident: ImageSetId) -> None:
+    """Add to a done record what the annotation files need, so they can be rebuilt from it.
+
+    Adds ``image`` (file_name relative to the output root, width, height) and, to each
+    object (``index`` k, 1-based), ``bbox_2d_amodal`` (``amodal[k - 1]``) and ``mask_rle``
+    (COCO RLE of ``visible == k``; ``visible`` (H, W) uint8 from :class:`Composed`).
+    """
+    h, w = visible.shape
+    record["image"] = {"file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h}
+    for obj in record["objects"]:
+        k = obj["index"]
+        obj["bbox_2d_amodal"] = amodal[k - 1]
+        obj["mask_rle"] = encode_rle(visible == k)
+
+
+def write_frame_annotations(out_root: Path, dataset_root: Path, ident: ImageSetId, record: dict[str, Any],
+                            visible: np.ndarray, camera: Camera) -> list[Path]:
+    """Write the polygons and gtBbox3d files of one augmented image set; returns their paths.
+
+    ``record``: the set's record after :func:`annotate_objects`; the input set's polygons
+    and gtBbox3d files under ``dataset_root`` are merged in when they exist.
+    """
+    src_poly = ident.path(dataset_root, "polygons")
+    src_3d = bbox3d_path(dataset_root, ident)
+    polygons = polygons_document(src_poly if src_poly.is_file() else None, record["objects"], visible)
+    boxes = bbox3d_document(camera, record["objects"], src_3d if src_3d.is_file() else None)
+    paths = [ident.path(out_root, "polygons"), bbox3d_path(out_root, ident)]
+    write_json(paths[0], polygons)
+    write_json(paths[1], boxes)
+    return paths
+
+
+# ------------------------------------------------------------------------ per batch: COCO
+def coco_document(out_root: Path) -> dict[str, Any]:
+    """COCO instances of the inserted objects of every done record under ``out_root``.
+
+    Images are numbered 1.. in the records' sorted order (``split/city/name``), annotations
+    1.. in image then object order. Only the inserted objects are annotated, not the real
+    scene's. Category ids are Cityscapes label ids, names Cityscapes class names.
+    """
+    images, annotations, classes = [], [], {}
+    for path in sorted((Path(out_root) / "synthcompose").rglob("*_synthcompose.json")):
+        try:
+            record = read_json(path)
+        except InputError as exc:  # a damaged record: its image set is not complete
+            log.warning("%s; left out of %s", exc, COCO_NAME)
+            continue
+        if not isinstance(record, dict) or record.get("status") != "done":
+            continue
+        if "image" not in record or any("mask_rle" not in o for o in record.get("objects", [])):
+            log.warning("%s: record has no masks (written by an older version); left out of %s", path, COCO_NAME)
+            continue
+        image_id = len(images) + 1
+        images.append({"id": image_id, "file_name": record["image"]["file_name"],
+                       "width": record["image"]["width"], "height": record["image"]["height"],
+                       "image_set": record["image_set"]})
+        for obj in record["objects"]:
+            if not obj.get("visible_pixels") or obj.get("bbox_2d") is None:
+                continue
+            classes[obj["label_id"]] = obj["class"]
+            annotations.append({
+                "id": len(annotations) + 1, "image_id": image_id, "category_id": obj["label_id"],
+                "bbox": xywh(obj["bbox_2d"]), "area": obj["visible_pixels"],
+                "segmentation": obj["mask_rle"], "iscrowd": 0, "instance_id": obj["instance_id"],
+            })
+    categories = [{"id": cid, "name": name, "supercategory": name2label[name].category}
+                  for cid, name in sorted(classes.items())]
+    return {"info": {"description": "synthcompose: the inserted objects only (not the real scene's)"},
+            "licenses": [], "images": images, "annotations": annotations, "categories": categories}
+
+
+def write_coco(out_root: Path) -> Path:
+    """Write ``out_root/coco_instances.json`` (atomically) from the records; returns its path."""
+    path = Path(out_root) / COCO_NAME
+    write_json(path, coco_document(out_root))
+    return path

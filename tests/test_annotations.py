@@ -1,0 +1,379 @@
+"""Ground truth of the inserted objects: Cityscapes polygons, 2D boxes, Cityscapes 3D boxes
+(checked with cityscapesScripts' own loader and projection) and the batch's COCO file
+(checked with pycocotools)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from cityscapesscripts.helpers.annotation import Annotation, CsBbox3d, CsObjectType, CsPoly
+from cityscapesscripts.helpers.box3dImageTransform import CRS_S, CRS_V, Box3dImageTransform
+from cityscapesscripts.helpers.box3dImageTransform import Camera as CsCamera
+from cityscapesscripts.helpers.labels import id2label
+from cityscapesscripts.preparation.json2labelImg import createLabelImage
+from pycocotools.coco import COCO
+
+from synthcompose.annotations import (COCO_NAME, bbox3d_path, box3d_corners, decode_rle, mask_box, mask_polygons,
+                                      rasterize_polygons, remove_holes)
+from synthcompose.camera import Camera
+from synthcompose.cli import main
+from synthcompose.dataset import ImageSetId, read_image_set
+from synthcompose.labels import HAS_INSTANCES
+from synthcompose.sample import make_sample
+
+from .test_batch import write_manifest
+
+W, H = 640, 320
+POLYGON_MIN_IOU = 0.98  # polygons rasterised vs the visible mask
+CORNER_PX = 1.0  # cityscapesScripts' projected 3D box corners vs ours, pixels
+CORNER_M = 0.01  # cityscapesScripts' 3D box corners in V vs ours, metres
+SILHOUETTE_PX = 1.0  # the amodal silhouette box may exceed the projected 3D box by this much
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+# ------------------------------------------------------------------ polygons, no GL needed
+def test_holes_are_opened_or_filled_and_polygons_fill_back_exactly():
+    mask = np.zeros((40, 50), bool)
+    mask[5:35, 5:45] = True
+    mask[15:25, 15:25] = False  # a large hole: opened by a cut to the top edge (10 px)
+    mask[30, 40] = False  # a one-pixel speck: filled
+    mask[2, 2] = True  # a one-pixel part: a speck, left out
+    mask[37, 10:20] = True  # a one-pixel-thick part: two vertices, the last repeated
+    polys = mask_polygons(mask)
+    assert len(polys) == 2 and all(len(p) >= 3 for p in polys)
+    filled = rasterize_polygons(polys, mask.shape)
+    without_speck = remove_holes(mask).astype(bool)
+    without_speck[2, 2] = False
+    assert (filled == without_speck).all()
+    assert not filled[15:25, 15:25].any() and filled[30, 40] and filled[37, 10:20].all()
+    assert (filled != mask).sum() == 10 + 1 + 1
+    assert _iou(filled, mask) > 0.98
+
+
+def test_polygons_of_random_masks_fill_back_to_the_mask_without_holes():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        mask = np.zeros((60, 80), np.uint8)
+        for _ in range(int(rng.integers(1, 5))):
+            cv2.ellipse(mask, (int(rng.integers(0, 80)), int(rng.integers(0, 60))),
+                        (int(rng.integers(1, 25)), int(rng.integers(1, 20))), float(rng.uniform(0, 180)), 0, 360, 1, -1)
+        for _ in range(int(rng.integers(0, 6))):
+            cv2.circle(mask, (int(rng.integers(0, 80)), int(rng.integers(0, 60))), int(rng.integers(0, 5)), 0, -1)
+        mask = mask.astype(bool)
+        without_holes = remove_holes(mask).astype(bool)
+        n, _ = cv2.connectedComponents(1 - np.pad(without_holes.astype(np.uint8), 1), connectivity=4)
+        assert n == 2  # the background is one region: no hole left
+        assert (rasterize_polygons(mask_polygons(mask, min_part_pixels=1), mask.shape) == without_holes).all()
+
+
+def test_mask_box_is_pixel_edges_exclusive():
+    mask = np.zeros((10, 12), bool)
+    mask[2:5, 3:9] = True
+    assert mask_box(mask) == [3, 2, 9, 5]
+    assert mask_box(mask, 100, 200) == [103, 202, 109, 205]
+    assert mask_box(np.zeros((4, 4), bool)) is None
+
+
+def test_sensor_matrix_matches_a_real_cityscapes_3d_file():
+    """sensor_T_ISO_8855 = [R^T | -R^T t] from camera.json's extrinsics reproduces the matrix a
+    Cityscapes 3D gtBbox3d file gives for that calibration (x 1.7, y 0.1, z 1.22, yaw -0.0195,
+    pitch 0.038, roll 0), digit for digit."""
+    from synthcompose.annotations import sensor_T_iso8855
+
+    cam = Camera(fx=2262.52, fy=2265.3017905988554, u0=1096.98, v0=513.137, baseline=0.209313, x=1.7, y=0.1,
+                 z=1.22, yaw=-0.0195, pitch=0.038, roll=0.0, width=2048, height=1024)
+    published = [[0.9990881051503779, -0.01948468779721943, -0.03799085532693703, -1.6501524664770573],
+                 [0.019498764210995674, 0.9998098810245096, 0.0, -0.1331288872611436],
+                 [0.03798363254444427, -0.0007407747301939942, 0.9992780868764849, -1.2836173638418473]]
+    assert np.abs(sensor_T_iso8855(cam) - np.array(published)).max() < 1e-12
+
+
+# ------------------------------------------------------------------------- end to end
+def _label_polygons(labels: np.ndarray) -> list[dict]:
+    """A stand-in for an input gtFine polygons file: every label's region, as polygons."""
+    objects = []
+    for value in np.unique(labels):
+        for poly in mask_polygons(labels == value):
+            objects.append({"label": id2label[int(value)].name, "polygon": poly})
+    return objects
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory) -> tuple[Path, Path, list[ImageSetId]]:
+    root = tmp_path_factory.mktemp("cityscapes")
+    ids = make_sample(root, count=3, width=W, height=H, seed=1)
+    # the first set has its own polygons and 3D boxes: they must be kept
+    src = read_image_set(root, ids[0])
+    ids[0].path(root, "polygons").write_text(json.dumps(
+        {"imgHeight": H, "imgWidth": W, "objects": _label_polygons(src.label_ids)}))
+    box_file = bbox3d_path(root, ids[0])
+    box_file.parent.mkdir(parents=True)
+    box_file.write_text(json.dumps({
+        "imgWidth": W, "imgHeight": H, "sensor": {},
+        "objects": [{"2d": {"modal": [1, 2, 3, 4], "amodal": [1, 2, 3, 5]},
+                     "3d": {"center": [30.0, -5.0, 0.8], "dimensions": [4.0, 1.8, 1.5], "rotation": [1.0, 0, 0, 0]},
+                     "label": "car", "instanceId": 26000, "score": 1.0}],
+        "ignore": [{"2d": [0, 0, 10, 10], "label": "car", "instanceId": -1}]}))
+    work = tmp_path_factory.mktemp("batch")
+    out = work / "out"
+    assert main(["batch", str(write_manifest(work / "m.json", root, out)), "--no-progress"]) == 0
+    return root, out, ids
+
+
+def _records(out: Path, ids: list[ImageSetId]) -> list[dict]:
+    records = [json.loads(i.path(out, "record").read_text()) for i in ids]
+    assert all(r["status"] == "done" and r["objects"] for r in records)
+    return records
+
+
+def _visible_masks(root: Path, out: Path, ident: ImageSetId, record: dict) -> dict[int, np.ndarray]:
+    """Each object's visible mask from its record RLE, checked against the written ids."""
+    src, res = read_image_set(root, ident), read_image_set(out, ident)
+    masks = {}
+    for obj in record["objects"]:
+        mask = decode_rle(obj["mask_rle"])
+        assert mask.shape == (H, W) and mask.sum() == obj["visible_pixels"]
+        assert mask_box(mask) == obj["bbox_2d"]
+        if HAS_INSTANCES[obj["label_id"]]:
+            assert (mask == (res.instance_ids == obj["instance_id"])).all()
+        else:  # plain class id: the object's pixels are among the new pixels of its class
+            assert (res.label_ids[mask] == obj["label_id"]).all()
+            assert (src.instance_ids[mask] != obj["instance_id"]).all()
+        masks[obj["index"]] = mask
+    return masks
+
+
+def test_every_annotation_file_is_written(batch):
+    _, out, ids = batch
+    for ident in ids:
+        assert ident.path(out, "polygons").is_file()
+        assert bbox3d_path(out, ident).is_file()
+    assert (out / COCO_NAME).is_file()
+
+
+def test_amodal_box_holds_the_modal_box(batch):
+    _, out, ids = batch
+    for record in _records(out, ids):
+        for obj in record["objects"]:
+            m, a = obj["bbox_2d"], obj["bbox_2d_amodal"]
+            assert a[0] <= m[0] and a[1] <= m[1] and m[2] <= a[2] and m[3] <= a[3]
+            assert 0 <= a[0] < a[2] <= W and 0 <= a[1] < a[3] <= H
+            if obj["occluded_fraction"] == 0:
+                assert a == m
+
+
+def test_polygons_cover_each_visible_mask(batch):
+    root, out, ids = batch
+    for ident, record in zip(ids, _records(out, ids)):
+        masks = _visible_masks(root, out, ident, record)
+        doc = json.loads(ident.path(out, "polygons").read_text())
+        assert (doc["imgWidth"], doc["imgHeight"]) == (W, H)
+        source = ident.path(root, "polygons")
+        kept = json.loads(source.read_text())["objects"] if source.is_file() else []
+        assert doc["objects"][:len(kept)] == kept  # the input's objects first, unchanged
+        new = doc["objects"][len(kept):]
+        assert new and all(set(o) == {"label", "polygon"} for o in new)
+        # every appended polygon belongs to the object it overlaps most
+        filled = {k: np.zeros((H, W), bool) for k in masks}
+        for entry in new:
+            raster = rasterize_polygons([entry["polygon"]], (H, W))
+            k = max(masks, key=lambda k: (raster & masks[k]).sum())
+            assert entry["label"] == record["objects"][k - 1]["class"]
+            filled[k] |= raster
+        for k, mask in masks.items():
+            assert _iou(filled[k], mask) >= POLYGON_MIN_IOU, (ident, k)
+
+
+def test_polygons_load_and_draw_with_cityscapesscripts(batch):
+    root, out, ids = batch
+    for ident, record in zip(ids, _records(out, ids)):
+        ann = Annotation()
+        ann.fromJsonFile(str(ident.path(out, "polygons")))
+        assert (ann.imgWidth, ann.imgHeight) == (W, H)
+        assert ann.objects and all(isinstance(o, CsPoly) for o in ann.objects)
+        drawn = np.array(createLabelImage(ann, "ids"))  # json2labelImg's own rasteriser (PIL)
+        masks = _visible_masks(root, out, ident, record)
+        for obj in record["objects"]:
+            assert (drawn[masks[obj["index"]]] == obj["label_id"]).mean() >= POLYGON_MIN_IOU
+        if ident == ids[0]:  # with the input's polygons: only the objects' pixels change
+            before = Annotation()
+            before.fromJsonFile(str(ident.path(root, "polygons")))
+            changed = np.array(createLabelImage(before, "ids")) != drawn
+            union = np.any(list(masks.values()), axis=0)
+            assert (changed & ~union).sum() <= 0.02 * union.sum()
+
+
+def _cs_corner_order(pose: np.ndarray, extents) -> np.ndarray:
+    """Our box corners in V in cityscapesScripts' order BLB BRB FRB FLB BLT BRT FRT FLT
+    (back = -x, left = +y, bottom = z 0)."""
+    l, w, h = extents
+    local = np.array([[-l / 2, w / 2, 0], [-l / 2, -w / 2, 0], [l / 2, -w / 2, 0], [l / 2, w / 2, 0],
+                      [-l / 2, w / 2, h], [-l / 2, -w / 2, h], [l / 2, -w / 2, h], [l / 2, w / 2, h]])
+    return local @ pose[:3, :3].T + pose[:3, 3]
+
+
+def test_3d_boxes_load_and_project_with_cityscapesscripts(batch):
+    root, out, ids = batch
+    for ident, record in zip(ids, _records(out, ids)):
+        path = bbox3d_path(out, ident)
+        ann = Annotation(CsObjectType.BBOX3D)
+        ann.fromJsonFile(str(path))
+        boxes = [o for o in ann.objects if isinstance(o, CsBbox3d)]
+        data = json.loads(path.read_text())
+        assert (ann.imgWidth, ann.imgHeight) == (W, H) and "ignore" in data
+        cam = Camera.read(ident.path(out, "camera"), W, H)
+        sensor = data["sensor"]
+        assert [sensor[k] for k in ("fx", "fy", "u0", "v0", "baseline")] == [cam.fx, cam.fy, cam.u0, cam.v0,
+                                                                            cam.baseline]
+        cs_cam = CsCamera(sensor["fx"], sensor["fy"], sensor["u0"], sensor["v0"], sensor["sensor_T_ISO_8855"],
+                          imgWidth=W, imgHeight=H)
+        kept = 1 if ident == ids[0] else 0  # the input's own box comes first
+        if kept:
+            assert boxes[0].instanceId == 26000 and data["ignore"][0]["2d"] == [0, 0, 10, 10]
+        ours = boxes[kept:]
+        assert len(ours) == len(record["objects"])
+        for box, obj in zip(ours, record["objects"]):
+            pose = np.array(obj["pose"]["vehicle"]["matrix"])
+            assert box.label == obj["class"] and box.instanceId == obj["instance_id"] and box.score == 1.0
+            assert box.bbox_2d.bbox_modal == obj["bbox_2d"] and box.bbox_2d.bbox_amodal == obj["bbox_2d_amodal"]
+            assert box.dims == pytest.approx(obj["extents_m"], abs=1e-4)
+            t = Box3dImageTransform(cs_cam)
+            t.initialize_box_from_annotation(box, coordinate_system=CRS_V)
+            corners_v = _cs_corner_order(pose, obj["extents_m"])
+            # centre and rotation: the same box in the vehicle frame
+            got_v = np.array(list(t.get_vertices(CRS_V).values()))
+            assert np.abs(got_v - corners_v).max() < CORNER_M
+            # sensor_T_ISO_8855: V -> C; cityscapesScripts' S frame is our optical frame
+            opt = corners_v @ cam.optical_from_vehicle[:3, :3].T + cam.optical_from_vehicle[:3, 3]
+            assert np.abs(np.array(list(t.get_vertices(CRS_S).values())) - opt).max() < CORNER_M
+            # its projection = ours (pixel-centre coordinates)
+            uv_cs = np.array(list(t.get_vertices_2d().values()))
+            assert np.abs(uv_cs - cam.project(opt)).max() < CORNER_PX
+            # the rendered silhouette (pixel centres x0..x1-1) lies inside the projected box
+            u0, v0 = uv_cs.min(0)
+            u1, v1 = uv_cs.max(0)
+            a = obj["bbox_2d_amodal"]
+            assert a[0] >= u0 - SILHOUETTE_PX and a[2] - 1 <= u1 + SILHOUETTE_PX
+            assert a[1] >= v0 - SILHOUETTE_PX and a[3] - 1 <= v1 + SILHOUETTE_PX
+            # and fills most of it (a car or a sign is nearly as wide and tall as its box)
+            assert (a[2] - 1 - a[0]) >= 0.6 * (u1 - u0) and (a[3] - 1 - a[1]) >= 0.6 * (v1 - v0)
+            # cityscapesScripts' own amodal box (clipped corners; x/y max inclusive)
+            cs_box = t.get_amodal_box_2d()
+            assert cs_box[0] <= a[0] + SILHOUETTE_PX and cs_box[2] >= a[2] - 1 - SILHOUETTE_PX
+            assert np.allclose(box3d_corners(pose, obj["extents_m"]).mean(0), box.center, atol=1e-3)
+
+
+def test_coco_file_loads_and_matches_the_instance_masks(batch):
+    root, out, ids = batch
+    coco = COCO(str(out / COCO_NAME))
+    records = _records(out, ids)
+    assert len(coco.getImgIds()) == len(ids)
+    classes = {o["label_id"]: o["class"] for r in records for o in r["objects"]}
+    assert {c["id"]: c["name"] for c in coco.loadCats(coco.getCatIds())} == classes
+    for ident, record in zip(ids, records):
+        (img,) = [i for i in coco.loadImgs(coco.getImgIds()) if i["image_set"] == ident.key]
+        assert (out / img["file_name"]).resolve() == ident.path(out, "rgb").resolve()
+        assert (img["width"], img["height"]) == (W, H)
+        masks = _visible_masks(root, out, ident, record)
+        anns = coco.loadAnns(coco.getAnnIds(imgIds=[img["id"]]))
+        assert len(anns) == len(record["objects"])
+        res = read_image_set(out, ident)
+        for ann, obj in zip(anns, record["objects"]):
+            mask = coco.annToMask(ann).astype(bool)
+            assert ann["category_id"] == obj["label_id"] and ann["iscrowd"] == 0
+            assert (mask == masks[obj["index"]]).all()
+            if HAS_INSTANCES[obj["label_id"]]:
+                assert (mask == (res.instance_ids == obj["instance_id"])).all()
+            ys, xs = np.nonzero(mask)
+            assert ann["bbox"] == [xs.min(), ys.min(), xs.max() + 1 - xs.min(), ys.max() + 1 - ys.min()]
+            assert ann["area"] == mask.sum() == obj["visible_pixels"]
+
+
+def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
+    root, out, ids = batch
+    first = (out / COCO_NAME).read_bytes()
+    (out / COCO_NAME).unlink()
+    manifest = write_manifest(tmp_path / "m.json", root, out)  # same configuration: every set is resumed
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["resumed"] == len(ids)
+    assert (out / COCO_NAME).read_bytes() == first
+
+
+# ------------------------------------------------------------- an object behind a real pole
+def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
+    from synthcompose.annotations import amodal_boxes, annotate_objects, bbox3d_document, polygons_document
+    from synthcompose.compose import Composer, SceneLayers
+    from synthcompose.geometry import disparity_to_depth
+    from synthcompose.labels import label_id
+    from synthcompose.models import load_model
+    from synthcompose.placement import pose_matrix
+    from synthcompose.render import Lighting, RenderObject, Renderer
+    from synthcompose.sample import random_scene, render_scene
+
+    scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
+    arrays = render_scene(scene)
+    cam = scene.camera
+    for pole in scene.poles:  # a car on the road just behind a pole, across the line of sight
+        ray = np.array([pole.x - cam.x, pole.y - cam.y])
+        dist = np.hypot(*ray)
+        behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
+        if bool(scene.is_road(behind[0], behind[1])):
+            break
+    else:
+        pytest.skip("no pole in front of the road in this scene")
+    z = float(scene.ground_height(behind[0], behind[1]))
+    pose = pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
+                       float(np.arctan2(ray[1], ray[0]) + np.pi / 2))
+    model = load_model("builtin:box", (("length", 1.6),))
+    renderer, composer = Renderer(gl_clean), Composer(gl_clean)
+    passes = renderer.render(cam, [RenderObject(model, pose, (0.2, 0.2, 0.2))], Lighting.daylight(),
+                             photo=arrays["rgb"])
+    (amodal,) = amodal_boxes(passes.read("id"), passes.roi, 1)
+    silhouette = np.zeros((cam.height, cam.width), bool)
+    silhouette[passes.roi.slices] = passes.read("id") == 1
+    car = label_id("car")
+    scene_layers = SceneLayers(arrays["rgb"], arrays["label_ids"], arrays["instance_ids"].astype(np.int32),
+                               arrays["disparity"], disparity_to_depth(arrays["disparity"], cam),
+                               cam.baseline * cam.fx * 256)
+    out = composer.compose(passes, scene_layers, [car], [car * 1000 + 99])
+    renderer.release(passes)
+    visible = out.visible == 1
+    hidden = silhouette & ~visible
+    assert (arrays["label_ids"][hidden] == label_id("pole")).sum() > 5, "the pole should hide part of the car"
+    assert amodal == mask_box(silhouette) and mask_box(visible) is not None
+
+    # the record entries the pipeline makes, then the annotation documents
+    record = {"objects": [{"index": 1, "name": "box", "class": "car", "label_id": car, "instance_id": car * 1000 + 99,
+                           "extents_m": list(model.extents), "pose": {"vehicle": {"matrix": pose.tolist()}},
+                           "bbox_2d": mask_box(visible), "visible_pixels": int(visible.sum()),
+                           "occluded_fraction": round(float(hidden.sum() / silhouette.sum()), 4)}]}
+    ident = ImageSetId("train", "synthtown", "000000", "000099")
+    annotate_objects(record, out.visible, [amodal], ident)
+    obj = record["objects"][0]
+    assert (decode_rle(obj["mask_rle"]) == visible).all()
+    assert record["image"] == {"file_name": "leftImg8bit/train/synthtown/synthtown_000000_000099_leftImg8bit.png",
+                               "width": cam.width, "height": cam.height}
+
+    doc = polygons_document(None, record["objects"], out.visible)
+    # a part or two beside the pole; specks seen through the pole's disparity holes are left out
+    assert 1 <= len(doc["objects"]) <= 3 and {o["label"] for o in doc["objects"]} == {"car"}
+    assert all(rasterize_polygons([o["polygon"]], visible.shape).sum() >= 4 for o in doc["objects"])
+    filled = rasterize_polygons([o["polygon"] for o in doc["objects"]], visible.shape)
+    assert _iou(filled, visible) >= POLYGON_MIN_IOU
+    # drawn on top of the scene's own polygons, ours must leave the pole in front alone
+    assert (filled & hidden).sum() <= 0.02 * visible.sum()
+
+    boxes = bbox3d_document(cam, record["objects"])
+    (entry,) = boxes["objects"]
+    assert entry["2d"]["modal"] != entry["2d"]["amodal"]
+    x, y, w, h = entry["2d"]["amodal"]
+    m = entry["2d"]["modal"]
+    assert x <= m[0] and y <= m[1] and m[0] + m[2] <= x + w and m[1] + m[3] <= y + h
+    assert entry["occlusion"] == obj["occluded_fraction"] > 0 and entry["truncation"] == 0.0
