@@ -20,6 +20,7 @@ import logging
 import multiprocessing as mp
 import os
 import queue
+import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -33,11 +34,14 @@ from .errors import SynthComposeError
 from .fileio import read_json, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
+from .models import load_model
 from .pipeline import STAGES, Outcome, Pipeline
 
 log = logging.getLogger("synthcompose")
 
 LOCK_NAME = ".synthcompose.lock"
+#: fault injection (tests): a worker process given this image set key crashes with SIGSEGV
+FAULT_CRASH_ENV = "SYNTHCOMPOSE_FAULT_CRASH"
 
 
 class BatchError(SynthComposeError):
@@ -138,6 +142,13 @@ def remove_partials(out_root: Path) -> int:
     return n
 
 
+def preflight(manifest: Manifest) -> None:
+    """Load every model once before any work: a bad model file stops the batch at the start
+    (with the file named) instead of failing every image set."""
+    for spec in manifest.objects:
+        load_model(spec.model, spec.size, spec.up, spec.forward)
+
+
 class OutputLock:
     """Exclusive lock on an output root for the duration of a batch."""
 
@@ -194,10 +205,13 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
         results.put(("init-failed", wid, f"{type(exc).__name__}: {exc}"))
         return
     results.put(("ready", wid, pipe.gl.renderer_name))
+    crash_on = os.environ.get(FAULT_CRASH_ENV)
     while True:
         ident = tasks.get()
         if ident is None:
             break
+        if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
+            os.kill(os.getpid(), signal.SIGSEGV)
         results.put(("done", wid, pipe.process(ident)))
     pipe.close()
 
@@ -353,6 +367,7 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
         stale = remove_partials(manifest.output)
         if stale:
             log.info("removed %d partial files left by an interrupted run", stale)
+        preflight(manifest)
         ids, weights, summary.class_counts = select(manifest)
         todo = []
         for ident in ids:

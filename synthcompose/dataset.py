@@ -20,6 +20,7 @@ import numpy as np
 from .camera import Camera
 from .errors import InputError
 from .fileio import read_png
+from .labels import KNOWN_IDS
 
 _NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
 
@@ -122,6 +123,23 @@ class ImageSet:
         return self.rgb.shape[1], self.rgb.shape[0]
 
 
+#: a disparity above this share of the image width means an object nearer than ~0.5 m to a
+#: 2 m-baseline-ratio camera: no street scene has it
+MAX_DISPARITY_WIDTH_SHARE = 0.5
+
+
+def check_disparity(path: Path, disparity: np.ndarray, width: int) -> None:
+    """Refuse disparity maps that cannot be real: no valid pixel, or impossible values."""
+    valid = disparity > 1
+    if not valid.any():
+        raise InputError(path, "disparity has no valid pixel (all zero): no depth to place objects by")
+    d = (disparity[valid].astype(np.float32) - 1) / 256.0
+    share = float((d > MAX_DISPARITY_WIDTH_SHARE * width).mean())
+    if share > 0.01:
+        raise InputError(path, f"{share:.0%} of the disparities exceed half the image width "
+                               f"(up to {d.max():.0f} px): not a Cityscapes disparity map")
+
+
 def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
     """Read and check all files of one image set; raises :class:`InputError` naming the file."""
     rgb_path = ident.path(root, "rgb")
@@ -144,4 +162,9 @@ def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
     # Cityscapes' test split ships placeholder labels: nothing but ids 0-3 (unlabeled, ego
     # vehicle, rectification border, out of roi)
     labelled = labelled and bool((labels > 3).any())
+    unknown = np.flatnonzero(np.bincount(labels.ravel(), minlength=256)[~KNOWN_IDS])
+    if len(unknown):
+        bad = np.arange(256)[~KNOWN_IDS][unknown]
+        raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")
+    check_disparity(disp_path, disparity, w)
     return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled)

@@ -31,6 +31,18 @@ class ModelError(InputError):
     """A 3D model file cannot be used."""
 
 
+class OutputError(SynthComposeError):
+    """An output file cannot be written (disk full, no permission); names the file."""
+
+    def __init__(self, path: str | Path, problem: str) -> None:
+        self.path = str(path)
+        self.problem = problem
+        super().__init__(f"{self.path}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.path, self.problem))
+
+
 class GLContextError(SynthComposeError):
     """No OpenGL context could be created; the message says what to install."""
 

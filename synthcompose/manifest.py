@@ -21,6 +21,8 @@ from .render import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
 _POS = {"type": "number", "exclusiveMinimum": 0}
+#: split and city names: one folder level, no path tricks ("..", "/")
+_NAME = {"type": "string", "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*$"}
 
 SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -30,8 +32,8 @@ SCHEMA: dict[str, Any] = {
     "properties": {
         "dataset": {"type": "string", "minLength": 1, "description": "Cityscapes root"},
         "output": {"type": "string", "minLength": 1, "description": "output root (Cityscapes layout)"},
-        "splits": {"type": "array", "items": {"type": "string", "minLength": 1}, "minItems": 1, "uniqueItems": True},
-        "cities": {"type": "array", "items": {"type": "string", "minLength": 1}, "uniqueItems": True},
+        "splits": {"type": "array", "items": _NAME, "minItems": 1, "uniqueItems": True},
+        "cities": {"type": "array", "items": _NAME, "uniqueItems": True},
         "frames": {"type": "array", "items": {"type": "string", "pattern": r"^[A-Za-z0-9-]+_\d+_\d+$"},
                    "uniqueItems": True},
         "limit": {"type": "integer", "minimum": 1},
