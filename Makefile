@@ -37,6 +37,7 @@ demo: system venv sample ## run the main job on the bundled sample
 	@echo "results: out/demo (images under leftImg8bit/, gtFine/, disparity/; records under synthcompose/)"
 
 test: system venv ## run the test suite
+	@bash scripts/system-deps.sh --test
 	$(PY) -m pytest
 
 clean: ## remove generated outputs (keeps the virtualenv)

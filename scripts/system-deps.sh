@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Install the system libraries synthcompose needs (headless EGL via Mesa, assimp) when missing.
-# Debian/Ubuntu; uses apt-get as root, or sudo when available.
+# Debian/Ubuntu; uses apt-get as root, or sudo when available. --test: also what the tests use.
 set -euo pipefail
 
 need=()
@@ -10,6 +10,9 @@ have_lib 'libEGL_mesa.so.0' || need+=(libegl-mesa0)
 ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/dri/kms_swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
 have_lib 'libGL.so.1'       || need+=(libgl1)
 have_lib 'libassimp.so'     || need+=(libassimp5)
+if [ "${1:-}" = "--test" ]; then  # the tests also open the batch report in a headless browser
+  command -v chromium >/dev/null || need+=(chromium)
+fi
 
 if [ ${#need[@]} -eq 0 ]; then
   exit 0

@@ -79,6 +79,8 @@ class Summary:
             "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
             "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
                          for o in self.outcomes if o.status != "done"],
+            "image_sets": [{"image_set": o.key, "status": o.status, "resumed": o.resumed,
+                            "stage_s": {k: round(v, 4) for k, v in o.timings.items()}} for o in self.outcomes],
         }
         if self.class_counts is not None:
             out["class_counts"] = self.class_counts

@@ -48,6 +48,13 @@ def _check_placement(args: argparse.Namespace) -> int:
     return 1 if args.strict and any(r.failures for r in results) else 0
 
 
+def _report(args: argparse.Namespace) -> int:
+    from .report import write_report
+
+    print(f"written: {write_report(Path(args.out))}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="synthcompose", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -76,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("out", help="output root of a batch")
     c.add_argument("--strict", action="store_true", help="exit 1 when any object is outside the limits")
     c.set_defaults(func=_check_placement)
+    r = sub.add_parser("report", help="write a static HTML page about a finished batch")
+    r.add_argument("out", help="output root of a batch")
+    r.set_defaults(func=_report)
     return parser
 
 
