@@ -12,6 +12,9 @@ have_lib 'libGL.so.1'       || need+=(libgl1)
 have_lib 'libassimp.so'     || need+=(libassimp5)
 if [ "${1:-}" = "--test" ]; then  # the tests also open the batch report in a headless browser
   command -v chromium >/dev/null || need+=(chromium)
+  command -v Xvfb >/dev/null || need+=(xvfb)          # the preview window's tests run under Xvfb
+  have_lib 'libGLX_mesa.so.0' || need+=(libglx-mesa0)  # ... with Mesa's GLX (llvmpipe)
+  have_lib 'libXrandr.so.2' || need+=(libxrandr2 libxcursor1 libxi6 libxinerama1)  # what GLFW loads
 fi
 
 if [ ${#need[@]} -eq 0 ]; then

@@ -28,6 +28,12 @@ uniform uint u_front_labels[8];    // bit set: label always in front (ego vehicl
 uniform float u_disp_scale;        // baseline * fx * 256
 uniform float u_tol_abs;           // depth tolerance, metres
 uniform float u_tol_rel;           // depth tolerance, fraction of depth
+// camera match (off by default): the inserted object gets the photo's blur and noise
+uniform sampler2D u_objc;          // object colour premultiplied by coverage (rgb), coverage (a)
+uniform sampler2D u_noise;         // standard normal noise per channel (seeded, from NumPy)
+uniform vec3 u_noise_sigma;        // the photo's noise, sRGB [0, 1] units; 0: no noise
+uniform float u_blur_sigma;        // Gaussian blur of the object layer, pixels
+uniform int u_blur_radius;         // its half width in pixels; 0: no blur
 layout(location = 0) out vec4 out_rgb;
 layout(location = 1) out uint out_label;
 layout(location = 2) out uint out_instance;
@@ -36,6 +42,68 @@ layout(location = 4) out uint out_visible;   // object index where it is seen, e
 
 bool in_front(float obj_depth, float scene_depth, bool label_front) {
     return !label_front && obj_depth < scene_depth + u_tol_abs + u_tol_rel * obj_depth;
+}
+
+bool label_in_front(uint label) {
+    return (u_front_labels[label >> 5u] & (1u << (label & 31u))) != 0u;
+}
+
+// At pixel q: the visible object layer (premultiplied colour, coverage; zero where the real scene
+// is in front) and the background behind it (the photo with the inserted shadow). With these,
+// R' = C + (1 - a) B is the formula of main() below, rearranged.
+void layers(ivec2 q, out vec4 obj, out vec3 bg) {
+    vec3 R = srgb_to_linear(texelFetch(u_photo, q, 0).rgb);
+    vec3 irpv = texelFetch(u_irpv, q, 0).rgb;
+    vec3 ir = texelFetch(u_ir, q, 0).rgb;
+    float a = texelFetch(u_alpha, q, 0).r;
+    vec2 plane = texelFetch(u_plane, q, 0).rg;
+    float sd = texelFetch(u_scene_depth, q, 0).r;
+    bool front = label_in_front(texelFetch(u_labels, q, 0).r);
+    bool obj_vis = a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(a, 1e-6), sd, front);
+    bool plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, sd, front);
+    if (obj_vis) {
+        vec3 c = texelFetch(u_objc, q, 0).rgb;
+        obj = vec4(c, a);
+        // Irpv = C + (1 - a) * shadowed plane; where the object covers all, B is not known
+        bg = a < 0.999 ? R + (irpv - c) / (1.0 - a) - ir : R;
+    } else {
+        obj = vec4(0.0);
+        bg = R + ((a == 0.0 && plane_vis) ? irpv - ir : vec3(0.0));
+    }
+}
+
+// The composite with the object layer blurred by a Gaussian of u_blur_sigma: C_b + (1 - a_b) B,
+// B sharp (it is the photo); under a fully covered pixel B comes from the uncovered neighbours.
+vec3 blurred(ivec2 p, out float cover) {
+    vec4 obj0;
+    vec3 bg0;
+    layers(p, obj0, bg0);
+    bool covered = obj0.a >= 0.999;
+    ivec2 hi = textureSize(u_photo, 0) - 1;
+    vec4 acc = vec4(0.0);
+    vec3 bg_acc = vec3(0.0);
+    float wsum = 0.0, bg_w = 0.0;
+    float k = -0.5 / (u_blur_sigma * u_blur_sigma);
+    for (int dy = -u_blur_radius; dy <= u_blur_radius; ++dy) {
+        for (int dx = -u_blur_radius; dx <= u_blur_radius; ++dx) {
+            ivec2 q = clamp(p + ivec2(dx, dy), ivec2(0), hi);
+            float w = exp(k * float(dx * dx + dy * dy));
+            wsum += w;
+            if (!covered && texelFetch(u_alpha, q, 0).r == 0.0) continue;  // nothing to add
+            vec4 obj;
+            vec3 bg;
+            layers(q, obj, bg);
+            acc += w * obj;
+            if (covered && obj.a < 0.999) {
+                bg_acc += w * (1.0 - obj.a) * bg;
+                bg_w += w * (1.0 - obj.a);
+            }
+        }
+    }
+    acc /= wsum;
+    vec3 B = covered ? (bg_w > 0.0 ? bg_acc / bg_w : bg0) : bg0;
+    cover = acc.a;
+    return acc.rgb + (1.0 - acc.a) * B;
 }
 
 void main() {
@@ -60,7 +128,16 @@ void main() {
         a = 0.0;
     }
     vec3 rgb = a * irpv + (1.0 - a) * (R + diff);
-    out_rgb = vec4(linear_to_srgb(rgb), 1.0);
+    float cover = a;
+    if (u_blur_radius > 0) rgb = blurred(p, cover);
+    vec3 srgb = linear_to_srgb(rgb);
+    if (cover > 0.0 && any(greaterThan(u_noise_sigma, vec3(0.0)))) {
+        // the photo's noise where the object replaces it: what the background keeps of its own
+        // noise, (1 - cover), and the added noise make up the photo's level
+        float share = sqrt(max(1.0 - (1.0 - cover) * (1.0 - cover), 0.0));
+        srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p, 0).rgb * share, 0.0, 1.0);
+    }
+    out_rgb = vec4(srgb, 1.0);
 
     uint id = texelFetch(u_id, p, 0).r;
     out_label = label;

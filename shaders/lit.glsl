@@ -16,6 +16,7 @@ out vec2 v_uv;
 out vec4 v_color;
 out vec2 v_material;
 out float v_depth;
+flat out float v_ground_z;   // height of the object's contact point (reflection proxy)
 void main() {
     vec4 world = u_model * vec4(in_position, 1.0);
     vec4 optical = u_view * world;
@@ -25,6 +26,7 @@ void main() {
     v_color = in_color;
     v_material = in_material;
     v_depth = optical.z;
+    v_ground_z = u_model[3].z;
     gl_Position = u_proj * optical;
 }
 #elif defined FRAGMENT_SHADER
@@ -35,6 +37,7 @@ in vec2 v_uv;
 in vec4 v_color;
 in vec2 v_material;
 in float v_depth;
+flat in float v_ground_z;
 uniform bool u_is_plane;        // ground plane (Ir / Irpv) or object
 uniform bool u_shadows;         // false for Ir: the plane alone, nothing casts shadows
 uniform bool u_has_texture;
@@ -52,10 +55,19 @@ uniform mat4 u_sun_matrix;      // vehicle -> sun shadow map [0,1]^3
 uniform sampler2DShadow u_sky_map;
 uniform mat4 u_sky_matrix;      // vehicle -> top-down occlusion map [0,1]^3
 uniform float u_sky_radius;     // occlusion search radius in map units
+uniform float u_sun_scale;      // sun reaching this object (0 when it stands in a real cast shadow)
+uniform bool u_has_sun_mask;    // the planes take the sun per pixel from u_sun_mask
+uniform sampler2D u_sun_mask;   // sun reaching the real ground at each pixel of the ROI (0 in its shadows)
+uniform bool u_has_env;         // reflections: sample the photo where the reflected ray lands
+uniform sampler2D u_env;        // the full photo (sRGB texture: reads linear), mipmapped
+uniform mat4 u_env_view;        // vehicle -> optical frame of the full camera
+uniform vec4 u_env_k;           // (fx / W, fy / H, u0 / W, v0 / H) of the full camera
+uniform float u_env_lods;       // mip levels of u_env
 layout(location = 0) out vec4 out_color;   // lit linear colour
 layout(location = 1) out float out_alpha;  // object coverage
 layout(location = 2) out float out_odepth; // object depth (0 on the plane)
 layout(location = 3) out vec2 out_plane;   // (plane depth, plane coverage)
+layout(location = 4) out vec4 out_object;  // (object colour, 1) on the object, 0 on the plane
 
 const vec2 DISC[12] = vec2[](vec2(-0.326, -0.406), vec2(-0.840, -0.074), vec2(-0.696, 0.457),
     vec2(-0.203, 0.621), vec2(0.962, -0.195), vec2(0.473, -0.480), vec2(0.519, 0.767),
@@ -80,19 +92,43 @@ float sky_visibility(vec3 p) {
     return vis / 13.0;
 }
 
+// Radiance reflected towards the camera from direction r at p: the photo where the ray lands on
+// a simple proxy of the scene (the ground plane below, a wall 30 m away otherwise), projected
+// into the full frame and blurred with the roughness (mip level); the sky / ground colours of
+// the light where it leaves the frame (behind the camera, above the image).
+vec3 environment(vec3 p, vec3 r, float roughness) {
+    vec3 fallback = mix(u_ground_rgb, u_sky_rgb, smoothstep(-0.2, 0.2, r.z));
+    if (!u_has_env) return fallback;
+    float t = 30.0;
+    if (r.z < -0.02) t = min((v_ground_z - p.z) / r.z, 30.0);
+    vec4 o = u_env_view * vec4(p + max(t, 0.0) * r, 1.0);
+    if (o.z < 0.5) return fallback;
+    vec2 uv = vec2(u_env_k.x * o.x / o.z + u_env_k.z, u_env_k.y * o.y / o.z + u_env_k.w);
+    vec2 edge = min(uv, 1.0 - uv);
+    float inside = smoothstep(0.0, 0.06, min(edge.x, edge.y));
+    if (inside <= 0.0) return fallback;
+    vec3 photo = textureLod(u_env, uv, clamp(roughness * u_env_lods, 0.0, u_env_lods)).rgb;
+    return mix(fallback, photo, inside);
+}
+
 void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_pos - v_world);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
     vec3 albedo;
     float metallic, roughness;
+    // the sun that reaches this point: the object's, or on the plane the real ground's own
+    // (so a shadow thrown onto ground already in a real shadow adds nothing, and overlapping
+    // planes shade alike)
+    float sun_scale = u_sun_scale;
+    if (u_is_plane && u_has_sun_mask) sun_scale = texelFetch(u_sun_mask, ivec2(gl_FragCoord.xy), 0).r;
     if (u_is_plane) {
         metallic = 0.0; roughness = 1.0;
         albedo = u_plane_albedo;
         if (u_plane_from_photo) {
             // projective texturing: the plane alone (Ir) reproduces the photo exactly, so
             // R + Irpv - Ir = R * (shadowed / unshadowed light): shadows darken the real road
-            vec3 unshadowed = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) + u_sun_rgb * max(dot(n, u_sun_dir), 0.0);
+            vec3 unshadowed = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) + u_sun_rgb * sun_scale * max(dot(n, u_sun_dir), 0.0);
             albedo = srgb_to_linear(texelFetch(u_photo, ivec2(gl_FragCoord.xy), 0).rgb) / max(unshadowed, vec3(1e-4));
         }
     } else {
@@ -105,22 +141,24 @@ void main() {
     if (u_shadows && u_is_plane) sky_vis = mix(0.35, 1.0, sky_visibility(v_world));
     float ndl = max(dot(n, u_sun_dir), 0.0);
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
-    vec3 diffuse = albedo * (1.0 - metallic) * (ambient + u_sun_rgb * ndl * sun_vis);
+    vec3 sun_rgb = u_sun_rgb * sun_scale;
+    vec3 diffuse = albedo * (1.0 - metallic) * (ambient + sun_rgb * ndl * sun_vis);
     // glossy part: Schlick Fresnel, sky/ground reflection and a Blinn-Phong sun highlight
     vec3 f0 = mix(vec3(0.04), albedo, metallic);
     float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
     vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - ndv, 5.0);
     vec3 r = reflect(-v, n);
-    vec3 env = mix(u_ground_rgb, u_sky_rgb, smoothstep(-0.2, 0.2, r.z));
+    vec3 env = u_is_plane ? vec3(0.0) : environment(v_world, r, roughness);
     float gloss = 1.0 - roughness;
     vec3 h = normalize(u_sun_dir + v);
     float shininess = mix(4.0, 512.0, gloss * gloss);
-    vec3 spec = u_sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
+    vec3 spec = sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
     vec3 color = diffuse + fresnel * (env * gloss + spec * gloss);
     if (u_is_plane) color = diffuse;
     out_color = vec4(color, 1.0);
     out_alpha = u_is_plane ? 0.0 : 1.0;
     out_odepth = u_is_plane ? 0.0 : v_depth;
     out_plane = u_is_plane ? vec2(v_depth, 1.0) : vec2(0.0);
+    out_object = u_is_plane ? vec4(0.0) : vec4(color, 1.0);
 }
 #endif

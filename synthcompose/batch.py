@@ -127,6 +127,9 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
         return None
     if not isinstance(record, dict) or record.get("config_sha256") != manifest.config_hash:
         return None
+    from .placements import saved_is_stale  # saved placements: a placement saved since means redo
+    if saved_is_stale(manifest.output, ident, record):
+        return None
     if record.get("status") == "done":
         return Outcome(ident.key, "done", None, len(record.get("objects", [])), resumed=True)
     if record.get("status") == "no valid placement":

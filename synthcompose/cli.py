@@ -55,6 +55,40 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compare_lighting(args: argparse.Namespace) -> int:
+    from .lighting import compare_lighting
+    from .manifest import load_manifest
+
+    results = compare_lighting(load_manifest(args.manifest), Path(args.out), limit=args.limit)
+    for r in results:
+        print(f"{r['image_set']}: {r['status']}" + "".join(f"\n  {p}" for p in r["written"]))
+    return 0 if all(r["status"] in ("done", "no valid placement") for r in results) else 1
+
+
+# --- preview (preview.py, preview_state.py)
+def _preview(args: argparse.Namespace) -> int:
+    from .manifest import load_manifest
+
+    manifest = load_manifest(args.manifest)
+    if args.export_ply:  # headless: no window, no windowing toolkit imported
+        from .preview_state import PreviewSession
+
+        session = PreviewSession(manifest, args.frame)
+        try:
+            session.load()
+            info = session.export_ply(args.export_ply, args.colour)
+            for line in session.legend():
+                print(line)
+        finally:
+            session.close()
+        print(f"written: {args.export_ply} ({info['points']} points, {info['objects']} object boxes)")
+        return 0
+    from .preview import run_preview
+
+    return run_preview(manifest, args.frame)
+# --- end preview
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="synthcompose", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -79,6 +113,18 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--size", default="2048x1024", help="WIDTHxHEIGHT")
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=_make_sample)
+    cl = sub.add_parser("compare-lighting", help="side by side: fixed light | estimated light, input | output")
+    cl.add_argument("manifest", help="manifest JSON (see README)")
+    cl.add_argument("out", help="folder for the comparison PNGs (and both full outputs)")
+    cl.add_argument("--limit", type=int, help="at most this many image sets")
+    cl.set_defaults(func=_compare_lighting)
+    pv = sub.add_parser("preview", help="a window to debug placement (needs pip install 'synthcompose[preview]')")
+    pv.add_argument("manifest", help="manifest JSON (see README)")
+    pv.add_argument("--frame", help="start at this image set (city_seq_frame)")
+    pv.add_argument("--export-ply", metavar="FILE", help="write the frame's point cloud and object boxes as PLY "
+                                                          "and exit (headless, no window)")
+    pv.add_argument("--colour", choices=("rgb", "label"), default="rgb", help="point colours in the PLY")
+    pv.set_defaults(func=_preview)
     c = sub.add_parser("check-placement", help="measure the placements of a finished batch")
     c.add_argument("out", help="output root of a batch")
     c.add_argument("--strict", action="store_true", help="exit 1 when any object is outside the limits")

@@ -4,11 +4,18 @@ Runs ``shaders/compose.glsl`` over the render's region of interest, then pastes 
 into copies of the full-frame arrays. Outputs per pixel (see the shader for the rule):
 RGB R' = a*Irpv + (1-a)*(R + Irpv - Ir) in linear light; labels, instance ids and
 disparity take the object's values where its pixel centre is in front of the real scene.
+
+Camera match (optional, :class:`CameraMatch`): the photo's noise level and blur are measured
+(:func:`estimate_noise`, :func:`estimate_blur`) and given to the inserted object only - its
+layer blurred by a Gaussian, seeded noise of the photo's level where it covers the pixel.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
+
+import cv2
 
 import moderngl
 import numpy as np
@@ -49,6 +56,109 @@ class SceneLayers:
     disparity_scale: float  # baseline * fx * 256
 
 
+# ---------------------------------------------------------------- camera match
+#: what :func:`estimate_blur` measures on edges as sharp as the renderer's (4x MSAA resolved,
+#: i.e. box-filtered over the pixel): the object layer is blurred by the rest of the photo's
+RENDER_BLUR_SIGMA = 0.82
+#: the object blur is kept below this (pixels): beyond, the photo is out of focus or smeared
+#: and a Gaussian is no longer a good model
+MAX_OBJECT_BLUR = 1.6
+
+_IMMERKAER = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)  # L2 norm 6
+
+
+def _grouped_median(values: np.ndarray) -> float:
+    """Median of non-negative integer-valued data, interpolated within its integer bin (a plain
+    median of integers moves in steps of 1)."""
+    counts = np.bincount(values.astype(np.int64))
+    cum = np.cumsum(counts)
+    half = cum[-1] / 2.0
+    k = int(np.searchsorted(cum, half))
+    below = cum[k - 1] if k > 0 else 0
+    return float(k - 0.5 + (half - below) / max(counts[k], 1))
+
+
+def estimate_noise(rgb: np.ndarray) -> np.ndarray:
+    """(3,) noise standard deviation of each channel, in 8-bit code values: robust MAD of a
+    Laplacian-like high-pass (Immerkaer's mask, blind to planes) over the flat half of the
+    image, away from edges and clipped values."""
+    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    smooth = cv2.GaussianBlur(grey, (0, 0), 1.0)
+    grad = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    lo, hi = np.quantile(grad[::4, ::4], [0.5, 0.8])
+    flat = grad <= lo
+    flat &= cv2.dilate((grad > hi).astype(np.uint8), np.ones((5, 5), np.uint8)) == 0
+    channels = [rgb[..., c] for c in range(3)]
+    flat &= (np.minimum.reduce(channels) > 4) & (np.maximum.reduce(channels) < 251)
+    flat[:2], flat[-2:], flat[:, :2], flat[:, -2:] = False, False, False, False
+    if flat.sum() < 500:
+        flat[2:-2, 2:-2] = True
+    out = np.empty(3)
+    for c in range(3):
+        r = cv2.filter2D(channels[c].astype(np.float32), cv2.CV_32F, _IMMERKAER, borderType=cv2.BORDER_REFLECT)
+        out[c] = 1.4826 * _grouped_median(np.abs(r[flat])) / 6.0
+    return out
+
+
+def estimate_blur(rgb: np.ndarray, reblur: float = 1.0) -> float:
+    """Blur of the photo as the sigma (pixels) of an equivalent Gaussian, from its strong edges:
+    re-blurring a step edge of blur s by ``reblur`` lowers its peak gradient by the factor
+    sqrt(s^2 + reblur^2) / s (Zhuo & Sim's defocus estimate); median over edge pixels. An ideal
+    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`."""
+    grey8 = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    grey = grey8.astype(np.float32)
+    re = cv2.GaussianBlur(grey, (0, 0), reblur)
+
+    def grad(a: np.ndarray) -> np.ndarray:
+        return cv2.magnitude(cv2.Sobel(a, cv2.CV_32F, 1, 0), cv2.Sobel(a, cv2.CV_32F, 0, 1)) / 8.0
+
+    edges = cv2.Canny(grey8, 40, 100) > 0
+    edges[:3], edges[-3:], edges[:, :3], edges[:, -3:] = False, False, False, False
+    if edges.sum() < 50:
+        return float("nan")
+    g, gr = grad(grey)[edges], grad(re)[edges]
+    strong = g >= max(8.0, float(np.quantile(g, 0.6)))
+    ratio = g[strong] / np.maximum(gr[strong], 1e-6)
+    ratio = ratio[ratio > 1.01]
+    if len(ratio) < 20:
+        return float("nan")
+    return float(np.median(reblur / np.sqrt(ratio ** 2 - 1.0)))
+
+
+@dataclass(frozen=True)
+class CameraMatch:
+    """What the inserted object gets so that it looks taken by the same camera.
+
+    noise_sigma       : the photo's noise per channel, 8-bit code values (sRGB)
+    blur_sigma        : the photo's blur, Gaussian sigma in pixels (:func:`estimate_blur`)
+    object_blur_sigma : blur applied to the object layer: sqrt(blur^2 - RENDER_BLUR_SIGMA^2)
+    seed              : of the noise (same seed, same noise)
+    """
+
+    noise_sigma: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    blur_sigma: float = 0.0
+    object_blur_sigma: float = 0.0
+    seed: int = 0
+
+    @classmethod
+    def measure(cls, rgb: np.ndarray, seed: int = 0) -> "CameraMatch":
+        noise = estimate_noise(rgb)
+        blur = estimate_blur(rgb)
+        extra = 0.0 if not math.isfinite(blur) else math.sqrt(max(blur ** 2 - RENDER_BLUR_SIGMA ** 2, 0.0))
+        return cls(tuple(float(v) for v in noise), float(blur) if math.isfinite(blur) else 0.0,
+                   float(min(extra, MAX_OBJECT_BLUR)), int(seed))
+
+    @property
+    def blur_radius(self) -> int:
+        """Half width of the blur kernel in pixels (0: no blur)."""
+        return 0 if self.object_blur_sigma < 0.1 else int(math.ceil(2.5 * self.object_blur_sigma))
+
+    def to_dict(self) -> dict:
+        return {"noise_sigma_8bit": [round(v, 3) for v in self.noise_sigma],
+                "blur_sigma_px": round(self.blur_sigma, 3), "object_blur_sigma_px": round(self.object_blur_sigma, 3),
+                "noise_seed": self.seed}
+
+
 class Composer:
     """Runs the compose shader with the shared :class:`GLContext`."""
 
@@ -62,10 +172,12 @@ class Composer:
         self.prog["u_front_labels"].write(mask.tobytes())
         self.prog["u_tol_abs"].value = TOL_ABS
         self.prog["u_tol_rel"].value = TOL_REL
+        self._zero = gl.texture((1, 1), 4, np.zeros((1, 1, 4), np.float32), dtype="f4")  # unused samplers
 
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
-                    instances: Sequence[int]) -> dict[str, np.ndarray]:
-        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity."""
+                    instances: Sequence[int], match: CameraMatch | None = None) -> dict[str, np.ndarray]:
+        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity.
+        ``match``: blur and noise for the object layer (None: none)."""
         if len(classes) > MAX_OBJECTS:
             raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
         gl, ctx = self.gl.activate(), self.gl.ctx
@@ -80,10 +192,19 @@ class Composer:
         }
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
+        match = match or CameraMatch()
+        noise_on = any(v > 0 for v in match.noise_sigma)
+        if noise_on:  # seeded in NumPy: the same seed gives the same bytes on any machine
+            noise = np.random.default_rng(match.seed).standard_normal((roi.height, roi.width, 3), np.float32)
+            made["u_noise"] = gl.texture(size, 3, noise, dtype="f4")
+        if match.blur_radius and "objc" not in passes.textures:
+            raise ValueError("blurring the object layer needs the render's 'objc' pass")
         inputs = dict(made)
-        for name in ("photo", "irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth"):
+        for name in ("photo", "irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth", "objc"):
             if name in passes.textures:
                 inputs[f"u_{name}"] = passes.textures[name]
+        inputs.setdefault("u_objc", self._zero)
+        inputs.setdefault("u_noise", self._zero)
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
             self.prog[name].value = unit
@@ -94,6 +215,9 @@ class Composer:
         self.prog["u_class"].write(cls.tobytes())
         self.prog["u_instance"].write(inst.tobytes())
         self.prog["u_disp_scale"].value = scene.disparity_scale
+        self.prog["u_noise_sigma"].value = tuple(float(v) / 255.0 for v in match.noise_sigma) if noise_on else (0.0,) * 3
+        self.prog["u_blur_radius"].value = match.blur_radius
+        self.prog["u_blur_sigma"].value = max(match.object_blur_sigma, 1e-3)
 
         outs = [gl.texture(size, 4, dtype="f1"), gl.texture(size, 1, dtype="u4"),
                 gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4")]
@@ -114,13 +238,13 @@ class Composer:
                 "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
 
     def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
-                instances: Sequence[int]) -> Composed:
+                instances: Sequence[int], match: CameraMatch | None = None) -> Composed:
         """Full-frame result: the scene's arrays with the ROI replaced by the composition."""
         out = Composed(scene.rgb.copy(), scene.label_ids.copy(), scene.instance_ids.copy(), scene.disparity.copy(),
                        np.zeros(scene.label_ids.shape, np.uint8))
         if passes is None:
             return out
-        roi_out = self.compose_roi(passes, scene, classes, instances)
+        roi_out = self.compose_roi(passes, scene, classes, instances, match)
         rows, cols = passes.roi.slices
         for name, arr in roi_out.items():
             getattr(out, name)[rows, cols] = arr

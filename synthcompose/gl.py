@@ -54,12 +54,22 @@ class GLContext:
     current. :meth:`release` frees programs, buffers and textures in reverse order.
     """
 
-    def __init__(self, backend: str | None = None, device: int | None = None) -> None:
-        self.ctx = create_context(backend, device)
+    def __init__(self, backend: str | None = None, device: int | None = None, *,
+                 context: moderngl.Context | None = None) -> None:
+        # ``context``: an existing context (a window's) to work in instead of making one; see wrap()
+        self.ctx = context if context is not None else create_context(backend, device)
+        self._external = context is not None
         self._programs: dict[str, moderngl.Program] = {}
         self._owned: list = []
         # bound before a framebuffer is released, so no deleted framebuffer stays current
         self._idle_fbo = self.own(self.ctx.framebuffer([self.own(self.ctx.renderbuffer((1, 1)))]))
+
+    @classmethod
+    def wrap(cls, ctx: moderngl.Context) -> "GLContext":
+        """Work in an existing moderngl context (a preview window's, from ``moderngl.create_context()``).
+        :meth:`release` then frees what was made through this object and leaves the context
+        itself to its owner."""
+        return cls(context=ctx)
 
     def activate(self) -> "GLContext":
         """Make this context current. Every entry point that does GL work calls this first, so
@@ -136,7 +146,8 @@ class GLContext:
         for prog in reversed(list(self._programs.values())):
             prog.release()
         self._programs.clear()
-        self.ctx.release()
+        if not self._external:
+            self.ctx.release()
 
     def __enter__(self) -> "GLContext":
         return self

@@ -77,9 +77,15 @@ SCHEMA: dict[str, Any] = {
         "lighting": {
             "type": "object", "additionalProperties": False,
             "properties": {
+                # --- lighting modes (lighting.py): "estimate" (default) measures each photo's
+                # light; "fixed" (also: the sun_* keys without a mode) uses one light for all
+                "mode": {"enum": ["estimate", "fixed"]},
                 "sun_elevation_deg": {"type": "number", "minimum": 1, "maximum": 90},
                 "sun_azimuth_deg": {"type": "number"},
                 "sun_fraction": {"type": "number", "minimum": 0, "maximum": 1},
+                "match_exposure": {"type": "boolean"},
+                "camera_match": {"type": "boolean"},
+                # --- end lighting modes
             },
         },
     },
@@ -115,6 +121,11 @@ class Manifest:
     rules: PlacementRules
     lighting: Lighting
     raw: dict  # the manifest as given, recorded with the outputs
+    # --- lighting modes (lighting.py)
+    lighting_mode: str = "estimate"  # "estimate": each photo's own light; "fixed": `lighting` for all
+    match_exposure: bool = False  # estimate mode: scale the light to the photo's exposure
+    camera_match: bool = True  # give the inserted objects the photo's blur and noise
+    # --- end lighting modes
 
     @property
     def config_hash(self) -> str:
@@ -168,6 +179,15 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
     lt = data.get("lighting", {})
     lighting = Lighting.daylight(lt.get("sun_elevation_deg", 50.0), lt.get("sun_azimuth_deg", 135.0),
                                  lt.get("sun_fraction", 0.35))
+    # --- lighting modes: the sun_* keys alone (the old form) mean a fixed light
+    sun_keys = [k for k in ("sun_elevation_deg", "sun_azimuth_deg", "sun_fraction") if k in lt]
+    lighting_mode = lt.get("mode", "fixed" if sun_keys else "estimate")
+    if lighting_mode == "estimate" and sun_keys:
+        raise ManifestError(path, f"field 'lighting/{sun_keys[0]}': only with \"mode\": \"fixed\" "
+                                  "(\"estimate\" measures the sun in each photo)")
+    if lighting_mode == "fixed" and "match_exposure" in lt:
+        raise ManifestError(path, "field 'lighting/match_exposure': only with \"mode\": \"estimate\"")
+    # --- end lighting modes
     return Manifest(
         path=path, dataset=(base / data["dataset"]).resolve(), output=(base / data["output"]).resolve(),
         splits=tuple(data["splits"]) if "splits" in data else None,
@@ -176,7 +196,9 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         limit=data.get("limit"), seed=int(data.get("seed", 0)),
         objects_per_image=int(data.get("objects_per_image", 1)),
         object_choice=data.get("object_choice", "weights"), objects=tuple(objects),
-        rules=rules, lighting=lighting, raw=data)
+        rules=rules, lighting=lighting, raw=data,
+        lighting_mode=lighting_mode, match_exposure=bool(lt.get("match_exposure", False)),  # lighting modes
+        camera_match=bool(lt.get("camera_match", True)))
 
 
 def load_manifest(path: str | Path) -> Manifest:

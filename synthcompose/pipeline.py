@@ -19,22 +19,24 @@ import numpy as np
 
 from . import __version__
 from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
-from .compose import Composer, SceneLayers
+from .compose import CameraMatch, Composer, SceneLayers
 from .dataset import ImageSetId, read_image_set
-from .errors import SynthComposeError
+from .errors import InputError, SynthComposeError
 from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
+from .lighting import camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
 from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, place_object
 from .render import RenderObject, Renderer
 from .writer import write_outputs, write_record
+from .placements import IGNORE_SAVED, read_saved, saved_result  # saved placements (preview)
 
 log = logging.getLogger("synthcompose")
 
-STAGES = ("read", "geometry", "placement", "render", "compose", "write")
+STAGES = ("read", "geometry", "placement", "lighting", "render", "compose", "write")
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,16 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
     return tuple(float(c) for c in np.median(lin, axis=0))
 
 
+def _saved_spec(m: Manifest, saved, k: int) -> ObjectSpec:
+    """The manifest object a saved placement names (placements.py)."""
+    name = saved.objects[k].name
+    for spec in m.objects:
+        if spec.name == name:
+            return spec
+    raise InputError(saved.path, f"saved placement names object {name!r}, which the manifest does not have "
+                                 f"({', '.join(repr(s.name) for s in m.objects)})")
+
+
 @contextmanager
 def _timed(timings: dict[str, float], stage: str) -> Iterator[None]:
     t0 = time.perf_counter()
@@ -109,11 +121,18 @@ class Pipeline:
     """Processes image sets of one manifest with one GL context."""
 
     def __init__(self, manifest: Manifest, weights: np.ndarray | None = None, gl_backend: str | None = None,
-                 gl_device: int | None = None) -> None:
+                 gl_device: int | None = None, gl: GLContext | None = None) -> None:
         """``weights``: probability of choosing each manifest object (default: their weights);
-        ``gl_device``: EGL device index (a GPU) for this pipeline's context."""
+        ``gl_device``: EGL device index (a GPU) for this pipeline's context; ``gl``: work in this
+        context instead of making one (the preview window's, :meth:`GLContext.wrap`)."""
         self.manifest = manifest
-        self.gl = GLContext(gl_backend, device=gl_device)
+        self.gl = gl if gl is not None else GLContext(gl_backend, device=gl_device)
+        self._own_gl = gl is None  # a context given is its owner's to release
+        # --- preview hooks (preview_state.py): see _capture and saved_placement
+        self.capture = None  # callable(stage, values): sees the intermediate results, may raise to stop
+        self.trace: list | None = None  # a list: gets (candidate point, rejection reason) of every candidate
+        self.placement_override = None  # None: the saved file if any; IGNORE_SAVED; or a SavedPlacement
+        # --- end preview hooks
         self.renderer = Renderer(self.gl)
         self.composer = Composer(self.gl)
         if weights is None:
@@ -121,7 +140,22 @@ class Pipeline:
         self._weights = np.asarray(weights, float)
 
     def close(self) -> None:
-        self.gl.release()
+        if self._own_gl:
+            self.gl.release()
+
+    # --- preview hooks / saved placements (placements.py)
+    def _capture(self, stage: str, **values) -> None:
+        if self.capture is not None:
+            self.capture(stage, values)
+
+    def saved_placement(self, ident: ImageSetId):
+        """The poses to use instead of a random placement (placements.py), or None."""
+        if self.placement_override is IGNORE_SAVED:
+            return None
+        if self.placement_override is not None:
+            return self.placement_override
+        return read_saved(self.manifest.output, ident)
+    # --- end preview hooks
 
     def __enter__(self) -> "Pipeline":
         return self
@@ -159,11 +193,14 @@ class Pipeline:
         records, failures = [], []
         taken: set[int] = set()
         with _timed(timings, "placement"):
-            for _ in range(m.objects_per_image):
-                spec = m.objects[int(rng.choice(len(m.objects), p=self._weights))]
+            saved = self.saved_placement(ident)  # saved placements: these objects and poses, no draw
+            for k in range(m.objects_per_image if saved is None else len(saved.objects)):
+                spec = m.objects[int(rng.choice(len(m.objects), p=self._weights))] if saved is None else \
+                    _saved_spec(m, saved, k)
                 model = load_model(spec.model, spec.size, spec.up, spec.forward)
                 result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
-                                      spec.orientation, [p for _, p, _ in placed])
+                                      spec.orientation, [p for _, p, _ in placed], trace=self.trace) \
+                    if saved is None else saved_result(frame, spec.class_name, model.extents, saved.objects[k])
                 if result.placement is None:
                     failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
                                      "attempts": result.attempts, "rejections": result.rejections})
@@ -183,10 +220,15 @@ class Pipeline:
             "labels": "gtFine" if image_set.labelled else {
                 "source": "none: road found from the disparity alone",
                 "ground_plane_z_axb": None if ground_plane is None else [round(float(v), 5) for v in ground_plane]},
-            "lighting": m.lighting.to_dict(),
+            "lighting": fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
+            else {"mode": "estimate"},  # lighting.py; the estimate replaces it below
             "objects": [],
             "not_placed": failures,
         }
+        if saved is not None:  # saved placements
+            record["placement_file"] = {"path": str(saved.path) if saved.path else None, "sha256": saved.sha256}
+        self._capture("placement", image_set=image_set, frame=frame, depth=depth, records=records,
+                      failures=failures, placed=placed, saved=saved)  # preview hook
         if not placed:
             record["status"] = "no valid placement"
             with _timed(timings, "write"):
@@ -197,20 +239,35 @@ class Pipeline:
             why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
             return Outcome(ident.key, "skipped", f"no valid placement ({why})", timings=timings)
 
+        # --- lighting (lighting.py): the photo's own light, and its camera's blur and noise
+        with _timed(timings, "lighting"):
+            lighting, estimate, match = m.lighting, None, None
+            if m.lighting_mode == "estimate":
+                estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
+                lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
+                record["lighting"] = estimate.to_dict() | {"renderer": lighting.to_dict()}
+            if m.camera_match:
+                match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
+                record["camera_match"] = match.to_dict()
+        # --- end lighting
         with _timed(timings, "render"):
             objects = []
             for rec in records:
                 spec, pl = rec["spec"], rec["result"].placement
                 allowed = [label_id(s) for s in (spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))]
                 albedo = ground_albedo(image_set.rgb, frame, pl, allowed)
-                objects.append(RenderObject(rec["model"], pl.matrix, albedo))
-                rec["plane_albedo"] = albedo
-            passes = self.renderer.render(cam, objects, m.lighting, photo=image_set.rgb)
+                # lighting: an object standing in a real cast shadow gets no sun
+                sun = 1.0 if estimate is None else estimate.sun_visibility(int(frame.label_ids[pl.pixel]), albedo)
+                objects.append(RenderObject(rec["model"], pl.matrix, albedo, sun_visibility=sun))
+                rec["plane_albedo"], rec["sun_visibility"] = albedo, sun
+            passes = self.renderer.render(cam, objects, lighting, photo=image_set.rgb,  # lighting: real shadows
+                                          sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
         with _timed(timings, "compose"):
             scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
                                 depth, cam.baseline * cam.fx * 256.0)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
-            composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed])
+            composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed], match)
+            self._capture("compose", passes=passes, composed=composed, scene=scene)  # preview hook
             rendered = np.zeros(len(placed) + 1, np.int64)
             amodal = [None] * len(placed)  # annotations: amodal 2D box of each object
             if passes is not None:
@@ -239,7 +296,8 @@ class Pipeline:
                                                           (opt_from_v @ np.append(pl.position, 1.0))[:3]]},
                     },
                     "ground": {"normal": [round(v, 5) for v in pl.ground_normal], "rms_m": round(pl.ground_rms, 4),
-                               "albedo_linear": [round(v, 4) for v in rec["plane_albedo"]]},
+                               "albedo_linear": [round(v, 4) for v in rec["plane_albedo"]],
+                               "sun_visibility": round(rec["sun_visibility"], 3)},  # lighting
                     "distance_m": round(pl.distance, 3),
                     "road_yaw_deg": None if pl.road_yaw is None else round(math.degrees(pl.road_yaw), 3),
                     "pixel": list(pl.pixel),
@@ -249,6 +307,7 @@ class Pipeline:
                     "occluded_fraction": round(1.0 - int(mask.sum()) / max(int(rendered[k]), 1), 4),
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
+                    "placement_source": "random" if saved is None else "saved",  # saved placements
                 })
             # --- annotations (annotations.py): amodal boxes and visible-mask RLE in the record,
             # gtFine polygons and gtBbox3d files; before the record, which is written last

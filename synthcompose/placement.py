@@ -421,17 +421,33 @@ class _Candidates:
         return int(self.index[np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right")])
 
 
+class _TracedCounter(Counter):
+    """Rejection counter that also lists (candidate point in V, reason) for the preview."""
+
+    def __init__(self, trace: list) -> None:
+        super().__init__()
+        self.trace, self.point = trace, None
+
+    def __setitem__(self, key, value) -> None:
+        if value > self.get(key, 0) and self.point is not None:
+            self.trace.append((self.point, key))
+        super().__setitem__(key, value)
+
+
 def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
                  rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
-                 others: Sequence[Placement] = ()) -> PlacementResult:
-    """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not."""
+                 others: Sequence[Placement] = (), trace: list | None = None) -> PlacementResult:
+    """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not.
+
+    ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
+    candidate (the preview shows them); the result does not depend on it."""
     allowed = tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",)))
     orientation = orientation or ORIENTATION.get(class_name, "along-road")
     if orientation not in ORIENTATIONS:
         raise ValueError(f"unknown orientation {orientation!r}")
     allowed_ids = np.array([label_id(n) for n in allowed])
     camera, depth, label_ids = frame.camera, frame.depth, frame.label_ids
-    rejections: Counter[str] = Counter()
+    rejections: Counter[str] = Counter() if trace is None else _TracedCounter(trace)
     candidates = _Candidates(frame, allowed_ids, rules.distance)
     lo, hi = rules.distance
     if len(candidates) == 0:
@@ -489,6 +505,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         idx = candidates.draw(rng)
         point = frame.cloud.vehicle[idx].astype(float)
         row, col = int(frame.cloud.pixels[idx, 0]), int(frame.cloud.pixels[idx, 1])
+        if trace is not None:  # preview: where this candidate was
+            rejections.point = point
         # 1. the candidate pixel must be ground-like, not a kerb face or a wall
         n_here = surface_normals(depth, camera, np.array([row]), np.array([col]))[0]
         if not n_here[2] >= min_up:  # NaN-safe

@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Sequence
 
+import cv2
 import moderngl
 import numpy as np
 
@@ -24,6 +25,7 @@ from .gl import GLContext
 from .models import Model
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
+GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 SAMPLES = 4
 
 
@@ -74,6 +76,7 @@ class RenderObject:
     vehicle_from_object: np.ndarray  # (4, 4)
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
     plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
 
     def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
         """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
@@ -253,12 +256,15 @@ class Renderer:
 
     # ----------------------------------------------------------------- passes
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
-               photo: np.ndarray | None = None, roi: Roi | None = None) -> RenderPasses | None:
+               photo: np.ndarray | None = None, roi: Roi | None = None,
+               sun_mask: np.ndarray | None = None) -> RenderPasses | None:
         """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
 
         ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
         their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
-        passes as ``photo`` for the compose stage.
+        passes as ``photo`` for the compose stage. ``sun_mask`` (H, W) float, full frame: the sun
+        reaching the real ground at each pixel (0 in its real shadows, lighting.py); the planes
+        use it instead of their object's ``sun_visibility``.
         """
         roi = roi or roi_for(camera, objects, lighting)
         if roi is None:
@@ -270,19 +276,23 @@ class Renderer:
         if photo is not None:
             rows, cols = roi.slices
             tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
+            tex["env"] = self._environment(photo)  # reflections (lit.glsl: environment)
+        if sun_mask is not None:
+            rows, cols = roi.slices
+            tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
         half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
         self._draw_shadow_maps(objects, (sun_mat, sky_mat))
 
         # multisampled lit pass -> irpv, alpha, odepth, plane ; then ir
-        ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2)]
+        ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2, 4)]
         ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
         ms_fbo = gl.own(ctx.framebuffer(ms, ms_depth))
         ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
         tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
-                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4))})
-        resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"]]))
+                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4), ("objc", 4))})
+        resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]]))
         resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
 
         prog = self.programs["lit"]
@@ -301,6 +311,18 @@ class Renderer:
         prog["u_sky_map"].value = 2
         prog["u_photo"].value = 3
         prog["u_plane_from_photo"].value = photo is not None
+        # reflections sample the full photo (see _environment)
+        prog["u_env"].value = 4
+        prog["u_has_env"].value = photo is not None
+        if photo is not None:
+            prog["u_env_view"].write(_gl(camera.optical_from_vehicle))
+            prog["u_env_k"].value = (camera.fx / camera.width, camera.fy / camera.height,
+                                     (camera.u0 + 0.5) / camera.width, (camera.v0 + 0.5) / camera.height)
+            prog["u_env_lods"].value = float(math.log2(max(tex["env"].width, tex["env"].height)))
+        (tex["env"] if photo is not None else self._blank).use(4)
+        prog["u_sun_mask"].value = 5
+        prog["u_has_sun_mask"].value = sun_mask is not None
+        (tex["sun_mask"] if sun_mask is not None else self._blank).use(5)
         self.shadow_maps[0][0].use(1)
         self.shadow_maps[1][0].use(2)
         (tex["photo"] if photo is not None else self._blank).use(3)
@@ -319,12 +341,14 @@ class Renderer:
                 scale = np.diag([hx, hy, 1.0, 1.0])
                 prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
                 prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
+                prog["u_sun_scale"].value = float(obj.sun_visibility)
                 self._plane_vao.render(moderngl.TRIANGLES)
             if with_objects:
                 # objects drawn over their planes: polygon offset keeps the contact clean
                 prog["u_is_plane"].value = False
                 for obj in objects:
                     prog["u_model"].write(_gl(obj.vehicle_from_object))
+                    prog["u_sun_scale"].value = float(obj.sun_visibility)
                     for vaos, texture in self._gpu_model(obj.model).parts:
                         prog["u_has_texture"].value = texture is not None
                         if texture is not None:
@@ -353,6 +377,18 @@ class Renderer:
         for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
             gl.free(obj)
         return RenderPasses(roi, cam, tex, gl)
+
+    def _environment(self, photo: np.ndarray) -> moderngl.Texture:
+        """The photo at half size as a mipmapped sRGB texture (reads linear): what glossy paint
+        and glass reflect (shaders/lit.glsl, environment())."""
+        h, w = photo.shape[:2]
+        small = cv2.resize(photo, (max(w // 2, 1), max(h // 2, 1)), interpolation=cv2.INTER_AREA)
+        tex = self.gl.own(self.gl.ctx.texture((small.shape[1], small.shape[0]), 3, np.ascontiguousarray(small).tobytes(),
+                                              internal_format=GL_SRGB8))
+        tex.build_mipmaps()
+        tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
 
     def release(self, passes: RenderPasses) -> None:
         self.gl.activate()

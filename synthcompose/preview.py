@@ -1,0 +1,356 @@
+"""``synthcompose preview``: a window for debugging placement (GLFW; ``pip install 'synthcompose[preview]'``).
+
+The window's OpenGL context is the only one: it is wrapped in a :class:`~synthcompose.gl.GLContext`
+and the batch's own Pipeline, Renderer and Composer render into it (:mod:`synthcompose.preview_state`
+does the work; this module only shows it and maps keys and the mouse).
+
+Keys: 1-9 pass (composed, Irpv, Ir, alpha, ID, object depth, scene depth, occlusion mask, semantic
+overlay); N / P next / previous image set; R re-roll (next seed offset); arrows move the selected
+object on the ground (Shift: 4x); Q / E turn it; Tab select the next object; S save the placement;
+V 3D view; C colour the cloud by RGB / label; X export PLY; H help; Esc quit. 3D view: left drag
+orbits, right (or middle) drag pans, the wheel zooms.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SynthComposeError
+from .gl import GLContext
+from .manifest import Manifest
+from .preview_state import (ACCEPTED_COLOUR, BOX_EDGES, PASS_TITLES, PASSES, STEP_M, STEP_YAW_DEG, PreviewSession,
+                            box_mesh, plane_quad)
+
+HELP = __doc__.split("\n\n", 2)[2].strip()
+MAX_WINDOW = (1600, 900)
+
+
+def _import_glfw():
+    try:
+        import glfw
+    except ImportError:
+        raise SynthComposeError("the preview window needs GLFW: pip install 'synthcompose[preview]'") from None
+    return glfw
+
+
+def _perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / math.tan(math.radians(fovy_deg) / 2)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = f / aspect, f
+    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def _look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    f = np.asarray(target, float) - eye
+    f /= np.linalg.norm(f)
+    s = np.cross(f, up)
+    s /= max(np.linalg.norm(s), 1e-9)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def _gl(m: np.ndarray) -> bytes:
+    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
+
+
+class Orbit:
+    """Orbit camera around a target in the vehicle frame (z up)."""
+
+    def __init__(self) -> None:
+        self.target = np.zeros(3)
+        self.yaw, self.pitch, self.distance = math.radians(200.0), math.radians(35.0), 25.0
+
+    @property
+    def eye(self) -> np.ndarray:
+        cp = math.cos(self.pitch)
+        return self.target + self.distance * np.array([cp * math.cos(self.yaw), cp * math.sin(self.yaw),
+                                                       math.sin(self.pitch)])
+
+    def matrix(self, aspect: float) -> np.ndarray:
+        return _perspective(50.0, aspect, 0.1, 1000.0) @ _look_at(self.eye, self.target)
+
+    def pan(self, dx: float, dy: float) -> None:
+        view = _look_at(self.eye, self.target)
+        right, up = view[0, :3], view[1, :3]
+        k = self.distance * 0.0015
+        self.target = self.target - right * dx * k + up * dy * k
+
+
+class PreviewWindow:
+    """The window: shows a :class:`PreviewSession` and maps keys and the mouse to it."""
+
+    def __init__(self, manifest: Manifest, frame: str | None = None, visible: bool = True,
+                 size: tuple[int, int] | None = None, quiet: bool = False) -> None:
+        import moderngl
+
+        glfw = self.glfw = _import_glfw()
+        if not glfw.init():
+            raise SynthComposeError("cannot open a window: GLFW found no display (is DISPLAY set?)")
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        glfw.window_hint(glfw.VISIBLE, visible)
+        glfw.window_hint(glfw.RESIZABLE, True)
+        self.window = glfw.create_window(640, 480, "synthcompose preview", None, None)
+        if not self.window:
+            glfw.terminate()
+            raise SynthComposeError("cannot open a window with an OpenGL 3.3 core context")
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(1)
+        self.ctx = moderngl.create_context(require=330)
+        self.gl = GLContext.wrap(self.ctx)
+        self.quiet = quiet
+        self.session = PreviewSession(manifest, frame, gl=self.gl)
+        self.blit = self.gl.program("preview_blit")
+        self.blit_vao = self.gl.own(self.ctx.vertex_array(self.blit, []))
+        self.points = self.gl.program("preview_points")
+        self.image_tex = None
+        self.pass_index = 0
+        self.mode_3d = False
+        self.colour_by = "rgb"
+        self.orbit = Orbit()
+        self._geometry: list = []  # (vao, mode, point size)
+        self._drag: tuple[int, float, float] | None = None
+        self.dirty = True
+        self._fixed_size = size
+        self._sized_for: tuple[int, int] | None = None
+        glfw.set_key_callback(self.window, self.on_key)
+        glfw.set_mouse_button_callback(self.window, self.on_mouse_button)
+        glfw.set_cursor_pos_callback(self.window, self.on_cursor)
+        glfw.set_scroll_callback(self.window, self.on_scroll)
+        self.reload(self.session.load())
+
+    # --------------------------------------------------------------------------- state
+    @property
+    def pass_name(self) -> str:
+        return PASSES[self.pass_index]
+
+    def _say(self, text: str) -> None:
+        if not self.quiet:
+            print(text, flush=True)
+
+    def reload(self, view=None) -> None:
+        """After the session changed: new image, new 3D geometry, title, legend."""
+        v = self.session.view
+        H, W = v.rgb.shape[:2]
+        if self._sized_for != (W, H):
+            if self._fixed_size:
+                w, h = self._fixed_size
+            else:
+                s = min(1.0, MAX_WINDOW[0] / W, MAX_WINDOW[1] / H)
+                w, h = int(round(W * s)), int(round(H * s))
+            self.glfw.set_window_size(self.window, w, h)
+            self._sized_for = (W, H)
+            o = v.objects[self.session.selected].placement.position if v.objects else np.array([15.0, 0, 0])
+            self.orbit.target = np.array(o, float)
+        self._upload_image()
+        self._build_geometry()
+        self._update_title()
+        for line in self.session.legend():
+            self._say(line)
+        self.dirty = True
+
+    def _upload_image(self) -> None:
+        import moderngl
+
+        img = np.ascontiguousarray(self.session.pass_image(self.pass_name))
+        H, W = img.shape[:2]
+        if self.image_tex is None or self.image_tex.size != (W, H):
+            if self.image_tex is not None:
+                self.gl.free(self.image_tex)
+            self.image_tex = self.gl.texture((W, H), 3, img)
+        else:
+            self.image_tex.write(img.tobytes())
+        fw, fh = self.glfw.get_framebuffer_size(self.window)
+        f = moderngl.NEAREST if (fw, fh) == (W, H) else moderngl.LINEAR
+        self.image_tex.filter = (f, f)
+        self.dirty = True
+
+    def _build_geometry(self) -> None:
+        import moderngl
+
+        for vao, _, _, buf in self._geometry:
+            self.gl.free(vao)
+            self.gl.free(buf)
+        self._geometry = []
+        v = self.session.view
+
+        def add(pos, col, mode, size=1.0):
+            if len(pos) == 0:
+                return
+            data = np.hstack([np.asarray(pos, np.float32), np.asarray(col, np.float32) / 255.0]).astype(np.float32)
+            buf = self.gl.own(self.ctx.buffer(data.tobytes()))
+            vao = self.gl.own(self.ctx.vertex_array(self.points, [(buf, "3f 3f", "in_position", "in_color")]))
+            self._geometry.append((vao, mode, size, buf))
+
+        add(v.frame.cloud.vehicle, self.session.cloud_colours(self.colour_by), moderngl.POINTS, 1.0)
+        lines, lcol = [], []
+        for i, o in enumerate(v.objects):
+            m = o.placement.matrix
+            corners, _ = box_mesh(m, o.extents)
+            c = (255, 255, 0) if i == self.session.selected else (255, 60, 60)
+            for a, b in BOX_EDGES:
+                lines += [corners[a], corners[b]]
+                lcol += [c, c]
+            q = plane_quad(m, o.extents)
+            for t in np.linspace(0.0, 1.0, 5):  # the fitted ground plane as a grid
+                for a, b, cc, d in ((0, 1, 3, 2), (0, 3, 1, 2)):
+                    lines += [q[a] + t * (q[cc] - q[a]), q[b] + t * (q[d] - q[b])]
+                    lcol += [(0, 220, 0)] * 2
+        add(np.array(lines).reshape(-1, 3), np.array(lcol).reshape(-1, 3), moderngl.LINES)
+        colours = v.reason_colour()
+        if v.trace:
+            add(np.array([p for p, _ in v.trace]), np.array([colours[w] for _, w in v.trace]), moderngl.POINTS, 7.0)
+        if v.objects:
+            add(np.array([o.placement.position for o in v.objects]), np.array([ACCEPTED_COLOUR] * len(v.objects)),
+                moderngl.POINTS, 10.0)
+
+    def _update_title(self) -> None:
+        v = self.session.view
+        what = f"3D view ({self.colour_by})" if self.mode_3d else f"{self.pass_index + 1}: {PASS_TITLES[self.pass_name]}"
+        top = sorted(v.reasons.items(), key=lambda kv: -kv[1])[:3]
+        rej = "; ".join(f"{w} x{n}" for w, n in top) or "none"
+        self.title = f"synthcompose preview - {what} - {self.session.status_line()} - rejected: {rej}"
+        self.glfw.set_window_title(self.window, self.title)
+
+    # ---------------------------------------------------------------------------- input
+    def on_key(self, window, key, scancode, action, mods) -> None:
+        glfw = self.glfw
+        if action not in (glfw.PRESS, glfw.REPEAT):
+            return
+        s = self.session
+        fast = 4.0 if mods & glfw.MOD_SHIFT else 1.0
+        if glfw.KEY_1 <= key <= glfw.KEY_9:
+            self.pass_index = key - glfw.KEY_1
+            self.mode_3d = False
+            self._upload_image()
+            self._update_title()
+        elif key in (glfw.KEY_N, glfw.KEY_P):
+            s.step_set(1 if key == glfw.KEY_N else -1)
+            self._sized_for = None
+            self.reload()
+        elif key == glfw.KEY_R:
+            s.reroll()
+            self.reload()
+        elif key in (glfw.KEY_UP, glfw.KEY_DOWN, glfw.KEY_LEFT, glfw.KEY_RIGHT):
+            d = {glfw.KEY_UP: (1, 0), glfw.KEY_DOWN: (-1, 0), glfw.KEY_LEFT: (0, 1), glfw.KEY_RIGHT: (0, -1)}[key]
+            s.move(dx=d[0] * STEP_M * fast, dy=d[1] * STEP_M * fast)
+            self.reload()
+        elif key in (glfw.KEY_Q, glfw.KEY_E):
+            s.move(dyaw_deg=(STEP_YAW_DEG if key == glfw.KEY_Q else -STEP_YAW_DEG) * fast)
+            self.reload()
+        elif key == glfw.KEY_TAB:
+            s.select_next()
+            self._build_geometry()
+            self._update_title()
+        elif key == glfw.KEY_S:
+            path = s.save()
+            self._say(f"saved placement: {path}" if path else "nothing placed: nothing to save")
+        elif key == glfw.KEY_V:
+            self.mode_3d = not self.mode_3d
+            self._update_title()
+        elif key == glfw.KEY_C:
+            self.colour_by = "label" if self.colour_by == "rgb" else "rgb"
+            self._build_geometry()
+            self._update_title()
+        elif key == glfw.KEY_X:
+            path = Path(s.base.output) / "preview" / s.ident.split / s.ident.city / f"{s.ident.name}.ply"
+            info = s.export_ply(path, self.colour_by)
+            self._say(f"PLY written: {path} ({info['points']} points, {info['objects']} boxes)")
+        elif key == glfw.KEY_H:
+            self._say(HELP)
+        elif key == glfw.KEY_ESCAPE:
+            glfw.set_window_should_close(self.window, True)
+        self.dirty = True
+
+    def on_mouse_button(self, window, button, action, mods) -> None:
+        if action == self.glfw.PRESS:
+            x, y = self.glfw.get_cursor_pos(window)
+            self._drag = (button, x, y)
+        else:
+            self._drag = None
+
+    def on_cursor(self, window, x, y) -> None:
+        if self._drag is None or not self.mode_3d:
+            return
+        button, x0, y0 = self._drag
+        dx, dy = x - x0, y - y0
+        if button == self.glfw.MOUSE_BUTTON_LEFT:
+            self.orbit.yaw -= dx * 0.01
+            self.orbit.pitch = float(np.clip(self.orbit.pitch + dy * 0.01, -1.45, 1.45))
+        else:
+            self.orbit.pan(dx, dy)
+        self._drag = (button, x, y)
+        self.dirty = True
+
+    def on_scroll(self, window, dx, dy) -> None:
+        if self.mode_3d:
+            self.orbit.distance = float(np.clip(self.orbit.distance * 0.9 ** dy, 0.5, 500.0))
+            self.dirty = True
+
+    # --------------------------------------------------------------------------- drawing
+    def draw(self) -> None:
+        import moderngl
+
+        self.gl.activate()
+        fw, fh = self.glfw.get_framebuffer_size(self.window)
+        self.ctx.screen.use()
+        self.ctx.viewport = (0, 0, fw, fh)
+        if not self.mode_3d:
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.ctx.clear(0.0, 0.0, 0.0, 1.0)
+            self.image_tex.use(0)
+            self.blit["u_image"].value = 0
+            self.blit_vao.render(moderngl.TRIANGLES, vertices=3)
+        else:
+            self.ctx.clear(0.12, 0.12, 0.14, 1.0, depth=1.0)
+            self.ctx.enable(moderngl.DEPTH_TEST | moderngl.PROGRAM_POINT_SIZE)
+            self.points["u_mvp"].write(_gl(self.orbit.matrix(fw / max(fh, 1))))
+            for vao, mode, size, _ in self._geometry:
+                self.points["u_point_size"].value = size
+                vao.render(mode)
+        self.dirty = False
+
+    def read_framebuffer(self) -> np.ndarray:
+        """(H, W, 3) uint8 RGB of the window's back buffer as just drawn (top row first)."""
+        fw, fh = self.glfw.get_framebuffer_size(self.window)
+        data = self.ctx.screen.read(viewport=(0, 0, fw, fh), components=3, alignment=1)
+        return np.frombuffer(data, np.uint8).reshape(fh, fw, 3)[::-1].copy()
+
+    def frame(self) -> None:
+        """Draw if needed and show it."""
+        if self.dirty:
+            self.draw()
+            self.glfw.swap_buffers(self.window)
+
+    def run(self) -> None:
+        self._say(HELP)
+        glfw = self.glfw
+        self.dirty = True
+        while not glfw.window_should_close(self.window):
+            glfw.wait_events_timeout(0.1)
+            if self.dirty:
+                self.frame()
+        self.close()
+
+    def close(self) -> None:
+        if self.window is None:
+            return
+        self.session.close()
+        self.gl.release()  # frees what the pipeline and this window made; the context itself is the window's
+        self.glfw.destroy_window(self.window)
+        self.glfw.terminate()
+        self.window = None
+
+
+def run_preview(manifest: Manifest, frame: str | None = None) -> int:
+    PreviewWindow(manifest, frame).run()
+    return 0

@@ -1,0 +1,357 @@
+"""What ``synthcompose preview`` shows, without any window: headless and testable.
+
+A :class:`PreviewSession` runs the batch's own :class:`~synthcompose.pipeline.Pipeline` on
+one image set (through the pipeline's preview hooks: it sees the intermediate results and
+stops before anything is written), keeps them as a :class:`View`, and turns them into the
+images of each pass, a PLY file, and saved placements. :mod:`synthcompose.preview` puts it
+in a window; this module never imports a windowing toolkit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .dataset import ImageSetId
+from .errors import SynthComposeError
+from .geometry import Frame
+from .labels import COLOR_LUT
+from .manifest import Manifest
+from .placement import ALLOWED_SURFACES, Placement
+from .placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path,
+                         write_saved)
+
+#: the passes the preview shows, in key order (1..9)
+PASSES = ("composed", "irpv", "ir", "alpha", "id", "odepth", "scene_depth", "occlusion", "semantic")
+PASS_TITLES = {"composed": "composed", "irpv": "Irpv (objects + planes)", "ir": "Ir (planes)",
+               "alpha": "alpha", "id": "object ID", "odepth": "object depth", "scene_depth": "scene depth",
+               "occlusion": "occlusion mask", "semantic": "semantic overlay"}
+#: RGB of the ID pass per object index (0 = none)
+ID_COLOURS = np.array([[0, 0, 0], [230, 25, 75], [60, 180, 75], [255, 225, 25], [0, 130, 200], [245, 130, 48],
+                       [145, 30, 180], [70, 240, 240], [240, 50, 230], [210, 245, 60], [250, 190, 212],
+                       [0, 128, 128], [220, 190, 255], [170, 110, 40], [255, 250, 200], [128, 0, 0]], np.uint8)
+#: colours of rejected candidates, by reason in order of first appearance
+REASON_COLOURS = np.array([[255, 0, 0], [255, 128, 0], [255, 0, 255], [0, 255, 255], [255, 255, 0], [128, 0, 255],
+                           [0, 128, 255], [255, 128, 128], [128, 255, 0], [255, 0, 128], [128, 128, 255],
+                           [200, 200, 200]], np.uint8)
+ACCEPTED_COLOUR = (0, 255, 0)
+STEP_M = 0.25  # arrow keys move the object this far
+STEP_YAW_DEG = 5.0  # Q/E turn it this much
+
+
+class _Stop(Exception):
+    """Raised by the capture hook: the preview has what it needs, nothing is written."""
+
+
+@dataclass
+class PlacedObject:
+    name: str  # manifest object name
+    class_name: str
+    placement: Placement
+    extents: tuple[float, float, float]
+    allowed: tuple[str, ...]
+
+
+@dataclass
+class View:
+    """Everything the preview shows for one image set (full-frame arrays, ROI passes)."""
+
+    ident: ImageSetId
+    rgb: np.ndarray  # (H, W, 3) uint8, the input photo
+    frame: Frame
+    objects: list[PlacedObject]
+    failures: list[dict]
+    trace: list  # (candidate point in V, rejection reason)
+    source: str  # "random", "saved" or "moved"
+    passes: dict[str, np.ndarray] = field(default_factory=dict)  # ROI-sized, as RenderPasses.read gives
+    roi: tuple[int, int, int, int] | None = None  # x0, y0, width, height
+    composed_rgb: np.ndarray | None = None
+    composed_labels: np.ndarray | None = None
+    visible: np.ndarray | None = None
+
+    @property
+    def reasons(self) -> dict[str, int]:
+        out: dict[str, int] = {}
+        for _, why in self.trace:
+            out[why] = out.get(why, 0) + 1
+        return out
+
+    def reason_colour(self) -> dict[str, tuple[int, int, int]]:
+        return {why: tuple(int(c) for c in REASON_COLOURS[i % len(REASON_COLOURS)])
+                for i, why in enumerate(self.reasons)}
+
+
+def _to_srgb8(lin: np.ndarray) -> np.ndarray:
+    c = np.clip(lin, 0.0, 1.0)
+    c = np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
+    return np.rint(c * 255).astype(np.uint8)
+
+
+def _colormap(values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(H, W) float -> (H, W, 3) uint8 RGB turbo colours, min..max of the valid ones; black elsewhere."""
+    out = np.zeros(values.shape + (3,), np.uint8)
+    if valid.any():
+        v = values[valid]
+        lo, hi = float(v.min()), float(v.max())
+        norm = np.zeros(values.shape, np.uint8)
+        norm[valid] = np.rint(255 * (v - lo) / max(hi - lo, 1e-6)).astype(np.uint8)
+        col = cv2.applyColorMap(norm, cv2.COLORMAP_TURBO)[..., ::-1]
+        out[valid] = col[valid]
+    return out
+
+
+class PreviewSession:
+    """One manifest's image sets through the batch's pipeline, one at a time, for viewing."""
+
+    def __init__(self, manifest: Manifest, frame: str | None = None, gl=None, gl_backend: str | None = None) -> None:
+        from .batch import select
+        from .pipeline import Pipeline
+
+        self.base = manifest
+        self.ids, weights, _ = select(manifest)
+        if not self.ids:
+            raise SynthComposeError(f"{manifest.path}: the manifest selects no image set")
+        self.index = 0
+        if frame is not None:
+            names = [i.name for i in self.ids]
+            if frame not in names:
+                raise SynthComposeError(f"frame {frame!r} is not among the manifest's image sets "
+                                        f"({', '.join(names[:5])}{', ...' if len(names) > 5 else ''})")
+            self.index = names.index(frame)
+        self.pipeline = Pipeline(manifest, weights, gl_backend=gl_backend, gl=gl)
+        self.seed_offset = 0
+        self.selected = 0  # the object the keys move
+        self.view: View | None = None
+
+    def close(self) -> None:
+        self.pipeline.close()
+
+    @property
+    def ident(self) -> ImageSetId:
+        return self.ids[self.index]
+
+    # ----------------------------------------------------------------- running the pipeline
+    def load(self, override=None) -> View:
+        """Run the pipeline on the current image set (``override``: see Pipeline.placement_override)."""
+        p = self.pipeline
+        p.manifest = replace(self.base, seed=self.base.seed + self.seed_offset)
+        p.placement_override = override
+        p.trace = []
+        got: dict = {}
+
+        def capture(stage: str, values: dict) -> None:
+            got.update(values)
+            if stage == "placement" and not values["placed"]:
+                raise _Stop
+            if stage == "compose":
+                passes = values["passes"]
+                if passes is not None:
+                    got["pass_arrays"] = {k: passes.read(k).copy() for k in
+                                          ("irpv", "ir", "alpha", "odepth", "id") if k in passes.textures}
+                    got["roi"] = (passes.roi.x0, passes.roi.y0, passes.roi.width, passes.roi.height)
+                    p.renderer.release(passes)
+                raise _Stop
+
+        p.capture = capture
+        try:
+            outcome = p._process(self.ident, {})
+        except _Stop:
+            outcome = None
+        finally:
+            p.capture, trace, p.trace = None, p.trace, None
+        if outcome is not None:  # only a bug gets here: the hooks stop before writing
+            raise SynthComposeError(f"preview ran past the compose stage on {self.ident.key}")
+        saved = got.get("saved")
+        source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
+        objects = []
+        for rec in got["records"]:
+            spec, pl = rec["spec"], rec["result"].placement
+            objects.append(PlacedObject(spec.name, spec.class_name, pl, tuple(pl.extents),
+                                        tuple(spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))))
+        composed = got.get("composed")
+        self.view = View(self.ident, got["image_set"].rgb, got["frame"], objects, got["failures"], trace or [], source,
+                         got.get("pass_arrays", {}), got.get("roi"),
+                         None if composed is None else composed.rgb,
+                         None if composed is None else composed.label_ids,
+                         None if composed is None else composed.visible)
+        self.selected = min(self.selected, max(len(objects) - 1, 0))
+        return self.view
+
+    def step_set(self, step: int) -> View:
+        self.index = (self.index + step) % len(self.ids)
+        self.seed_offset, self.selected = 0, 0
+        return self.load()
+
+    def reroll(self) -> View:
+        """Next seed offset: a new random placement (a saved one is ignored)."""
+        self.seed_offset += 1
+        return self.load(IGNORE_SAVED)
+
+    def _override(self, matrices: list[np.ndarray]) -> SavedPlacement:
+        return SavedPlacement(self.ident.key, tuple(SavedObject(o.name, tuple(tuple(float(v) for v in r) for r in m))
+                                                    for o, m in zip(self.view.objects, matrices)))
+
+    def move(self, dx: float = 0.0, dy: float = 0.0, dyaw_deg: float = 0.0) -> View:
+        """Move the selected object on the ground (metres in the vehicle frame: x forward,
+        y left) and turn it; it stands on the ground fitted where it lands."""
+        v = self.view
+        if v is None or not v.objects:
+            return v
+        mats = [o.placement.matrix for o in v.objects]
+        m = mats[self.selected]
+        yaw = math.atan2(m[1, 0], m[0, 0]) + math.radians(dyaw_deg)
+        mats[self.selected] = ground_pose(v.frame, m[0, 3] + dx, m[1, 3] + dy, yaw, v.objects[self.selected].extents,
+                                          fallback_z=float(m[2, 3]), fallback_normal=m[:3, 2])
+        new = self.load(self._override(mats))
+        new.trace = v.trace  # the candidates the random placement rejected stay on show
+        return new
+
+    def select_next(self) -> int:
+        if self.view and self.view.objects:
+            self.selected = (self.selected + 1) % len(self.view.objects)
+        return self.selected
+
+    def save(self) -> Path | None:
+        """Write the shown poses as the image set's placement file; a later batch uses them."""
+        v = self.view
+        if v is None or not v.objects:
+            return None
+        return write_saved(self.base.output, v.ident, [(o.name, o.placement.matrix) for o in v.objects])
+
+    @property
+    def placement_file(self) -> Path:
+        return placement_path(self.base.output, self.ident)
+
+    # --------------------------------------------------------------------------- images
+    def pass_image(self, name: str) -> np.ndarray:
+        """(H, W, 3) uint8 RGB picture of one pass over the full frame."""
+        v = self.view
+        H, W = v.rgb.shape[:2]
+        out = np.zeros((H, W, 3), np.uint8)
+        if name == "composed":
+            return (v.composed_rgb if v.composed_rgb is not None else v.rgb).copy()
+        if name == "scene_depth":
+            d = v.frame.depth
+            ok = np.isfinite(d) & (d > 0)
+            return _colormap(np.where(ok, 1.0 / np.where(ok, d, 1.0), 0.0), ok)
+        if name == "semantic":
+            labels = v.composed_labels if v.composed_labels is not None else v.frame.label_ids
+            base = v.composed_rgb if v.composed_rgb is not None else v.rgb
+            return ((base.astype(np.uint16) + COLOR_LUT[labels]) // 2).astype(np.uint8)
+        if name not in PASSES:
+            raise KeyError(f"unknown pass {name!r}; one of {', '.join(PASSES)}")
+        if v.roi is None:
+            return out
+        x0, y0, w, h = v.roi
+        rows, cols = slice(y0, y0 + h), slice(x0, x0 + w)
+        p = v.passes
+        if name in ("irpv", "ir"):
+            out[rows, cols] = _to_srgb8(p[name][..., :3])
+        elif name == "alpha":
+            out[rows, cols] = np.rint(np.clip(p["alpha"], 0, 1) * 255).astype(np.uint8)[..., None]
+        elif name == "id":
+            out[rows, cols] = ID_COLOURS[np.minimum(p["id"], len(ID_COLOURS) - 1)]
+        elif name == "odepth":
+            a = p["alpha"]
+            ok = a > 1e-3
+            out[rows, cols] = _colormap(np.where(ok, p["odepth"] / np.maximum(a, 1e-3), 0.0), ok)
+        elif name == "occlusion":
+            out[:] = (v.rgb.astype(np.uint16) * 2 // 5).astype(np.uint8)
+            rendered = np.zeros((H, W), bool)
+            rendered[rows, cols] = p["id"] > 0
+            seen = v.visible > 0 if v.visible is not None else np.zeros((H, W), bool)
+            out[rendered & ~seen] = (255, 40, 40)
+            out[rendered & seen] = (40, 220, 40)
+        return out
+
+    def status_line(self) -> str:
+        v = self.view
+        objs = ", ".join(f"{o.name}{'*' if i == self.selected else ''} {o.placement.distance:.1f}m "
+                         f"yaw {math.degrees(o.placement.yaw):.0f}" for i, o in enumerate(v.objects)) or "no object placed"
+        return f"{v.ident.key} [{v.source}, seed+{self.seed_offset}] {objs}"
+
+    def legend(self) -> list[str]:
+        v = self.view
+        cols = v.reason_colour()
+        lines = [f"rejected candidates of {v.ident.key} (seed+{self.seed_offset}):"]
+        for why, n in sorted(v.reasons.items(), key=lambda kv: -kv[1]):
+            lines.append(f"  rgb{cols[why]}  x{n}  {why}")
+        for f in v.failures:
+            lines.append(f"  not placed: {f['name']} ({f['reason']}, {f['attempts']} attempts)")
+        return lines
+
+    # ------------------------------------------------------------------------------ PLY
+    def cloud_colours(self, by: str = "rgb") -> np.ndarray:
+        """(N, 3) uint8 colour of each cloud point: the photo's, or its label's Cityscapes colour."""
+        v = self.view
+        px = v.frame.cloud.pixels
+        if by == "label":
+            return COLOR_LUT[v.frame.cloud.labels]
+        return v.rgb[px[:, 0], px[:, 1]]
+
+    def export_ply(self, path: str | Path, colour: str = "rgb") -> dict[str, int]:
+        return export_ply(path, self.view, self.cloud_colours(colour))
+
+
+def box_mesh(m: np.ndarray, extents) -> tuple[np.ndarray, np.ndarray]:
+    """(8, 3) corners (V) and (12, 3) triangles of an object's oriented box."""
+    l, w, h = extents
+    local = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, h)])
+    # corner index = 4*ix + 2*iy + iz
+    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int32)
+    return local @ m[:3, :3].T + m[:3, 3], tris
+
+
+BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+
+
+def plane_quad(m: np.ndarray, extents, margin: float = 1.0) -> np.ndarray:
+    """(4, 3) corners (V) of the object's fitted ground plane, ``margin`` beyond its footprint."""
+    l, w, _ = extents
+    hx, hy = l / 2 + margin, w / 2 + margin
+    local = np.array([[-hx, -hy, 0.0], [hx, -hy, 0.0], [hx, hy, 0.0], [-hx, hy, 0.0]])
+    return local @ m[:3, :3].T + m[:3, 3]
+
+
+def export_ply(path: str | Path, view: View, colours: np.ndarray) -> dict[str, int]:
+    """Binary PLY (vehicle frame, metres): every cloud point with its colour, then per object
+    its box (8 red vertices, 12 triangles) and its ground plane (4 green vertices, 2 triangles).
+    Loads in trimesh (``process=False`` keeps the unreferenced cloud points) and MeshLab."""
+    pts = view.frame.cloud.vehicle.astype(np.float32)
+    verts, faces = [pts], []
+    cols = [np.asarray(colours, np.uint8)]
+    base = len(pts)
+    for o in view.objects:
+        m = o.placement.matrix
+        corners, tris = box_mesh(m, o.extents)
+        verts += [corners.astype(np.float32), plane_quad(m, o.extents).astype(np.float32)]
+        cols += [np.tile(np.uint8([255, 0, 0]), (8, 1)), np.tile(np.uint8([0, 200, 0]), (4, 1))]
+        faces += [tris + base, np.array([[0, 1, 2], [0, 2, 3]], np.int32) + base + 8]
+        base += 12
+    v = np.concatenate(verts)
+    c = np.concatenate(cols)
+    f = np.concatenate(faces) if faces else np.empty((0, 3), np.int32)
+    vdt = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1")])
+    vrec = np.empty(len(v), vdt)
+    vrec["x"], vrec["y"], vrec["z"] = v[:, 0], v[:, 1], v[:, 2]
+    vrec["red"], vrec["green"], vrec["blue"] = c[:, 0], c[:, 1], c[:, 2]
+    fdt = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
+    frec = np.empty(len(f), fdt)
+    frec["n"], frec["i"] = 3, f
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"comment synthcompose preview: {view.ident.key}, vehicle frame (ISO 8855), metres\n"
+              f"comment {len(pts)} scene points, then per object 8 box corners and 4 ground-plane corners\n"
+              f"element vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "wb") as fh:
+        fh.write(header.encode("ascii"))
+        fh.write(vrec.tobytes())
+        fh.write(frec.tobytes())
+    return {"points": len(pts), "objects": len(view.objects), "vertices": len(v), "faces": len(f)}
