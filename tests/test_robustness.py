@@ -303,7 +303,8 @@ def test_memory_and_open_files_stay_flat_over_1000_image_sets(tmp_path):
     root = tmp_path / "cs"
     ids = make_sample(root, count=2, width=256, height=128, seed=3)
     manifest = load_manifest(write_manifest(tmp_path / "m.json", root, tmp_path / "out",
-                                            placement={"distance": [5, 25], "min_visible_pixels": 20}))
+                                            placement={"distance": [5, 25], "min_visible_pixels": 20},
+                                            lighting={"mode": "fixed", "camera_match": False}))
 
     def rss_mb() -> float:
         with open("/proc/self/statm") as fh:
