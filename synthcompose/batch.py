@@ -19,7 +19,6 @@ import fcntl
 import logging
 import multiprocessing as mp
 import os
-import queue
 import signal
 import sys
 import time
@@ -195,9 +194,13 @@ def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId],
             yield pipe.process(ident)
 
 
-def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, tasks, results, wid: int,
+def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
                  threads: int) -> None:
-    """A spawned worker: its own GL context; takes image sets until it gets None."""
+    """A spawned worker: its own GL context; takes image sets over its own pipe until None.
+
+    Each worker has a pipe of its own (no queue shared between workers): a worker that dies
+    while sending can never leave a lock held that would stall the others.
+    """
     # share the cores between workers: llvmpipe's and OpenCV's thread pools would
     # otherwise each take every core in every worker
     os.environ.setdefault("LP_NUM_THREADS", str(threads))
@@ -207,93 +210,100 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
     try:
         pipe = Pipeline(manifest, weights, gl_device=gl_device)
     except BaseException as exc:  # noqa: BLE001 - report, the parent decides
-        results.put(("init-failed", wid, f"{type(exc).__name__}: {exc}"))
+        conn.send(("init-failed", f"{type(exc).__name__}: {exc}"))
         return
-    results.put(("ready", wid, pipe.gl.renderer_name))
+    conn.send(("ready", pipe.gl.renderer_name))
     crash_on = os.environ.get(FAULT_CRASH_ENV)
     while True:
-        ident = tasks.get()
+        ident = conn.recv()
         if ident is None:
             break
         if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
             os.kill(os.getpid(), signal.SIGSEGV)
-        results.put(("done", wid, pipe.process(ident)))
+        conn.send(("done", pipe.process(ident)))
     pipe.close()
 
 
 def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
                   gpus: int) -> Iterator[Outcome]:
     """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
+    from multiprocessing.connection import wait
+
     ctx = mp.get_context("spawn")
-    results = ctx.Queue()
     pending = list(reversed(todo))
     slots: dict[int, dict] = {}
     next_id = 0
     restarts = 0
+    threads = max(1, (os.cpu_count() or 1) // workers)
 
     def start() -> None:
         nonlocal next_id
         wid = next_id
         next_id += 1
-        tasks = ctx.Queue()
+        parent_end, child_end = ctx.Pipe()
         device = (wid % gpus) if gpus else None
-        threads = max(1, (os.cpu_count() or 1) // workers)
-        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, tasks, results, wid, threads),
+        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, child_end, wid, threads),
                            name=f"synthcompose-worker-{wid}", daemon=True)
         proc.start()
-        slots[wid] = {"proc": proc, "tasks": tasks, "current": None, "ready": False}
+        child_end.close()
+        slots[wid] = {"proc": proc, "conn": parent_end, "current": None}
 
     def feed(wid: int) -> None:
         slot = slots[wid]
-        if pending:
-            slot["current"] = pending.pop()
-            slot["tasks"].put(slot["current"])
-        else:
-            slot["current"] = None
-            slot["tasks"].put(None)
+        slot["current"] = pending.pop() if pending else None
+        try:
+            slot["conn"].send(slot["current"])
+        except (OSError, ValueError):
+            pass  # died meanwhile: noticed through its sentinel
 
     for _ in range(min(workers, len(todo))):
         start()
     outstanding = len(todo)
     try:
         while outstanding:
-            try:
-                kind, wid, payload = results.get(timeout=0.5)
-            except queue.Empty:
-                for wid, slot in list(slots.items()):
-                    proc = slot["proc"]
-                    if proc.is_alive():
-                        continue
+            if not slots:
+                for ident in reversed(pending):
+                    yield Outcome(ident.key, "failed", "no worker left to process it")
+                return
+            ready = wait([sl["conn"] for sl in slots.values()] + [sl["proc"].sentinel for sl in slots.values()],
+                         timeout=5.0)
+            for wid, slot in list(slots.items()):
+                message = None
+                if slot["conn"] in ready or slot["proc"].sentinel in ready:
+                    try:
+                        if slot["conn"].poll():
+                            message = slot["conn"].recv()
+                    except (EOFError, OSError):
+                        message = None
+                if message is not None:
+                    kind, payload = message
+                    if kind == "init-failed":
+                        raise BatchError(f"a worker could not start: {payload}")
+                    if kind == "ready":
+                        if wid == 0:
+                            log.info("GL: %s", payload)
+                    else:
+                        outstanding -= 1
+                        yield payload
+                    feed(wid)
+                    continue
+                if slot["proc"].sentinel in ready or not slot["proc"].is_alive():
+                    slot["proc"].join(timeout=1)
                     del slots[wid]
+                    slot["conn"].close()
                     if slot["current"] is not None:  # died on an image set: that one fails
                         outstanding -= 1
                         yield Outcome(slot["current"].key, "failed",
-                                      f"worker process died (exit code {proc.exitcode}) on this image set")
+                                      f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
                     if pending and restarts < 10 * workers:
                         restarts += 1
-                        log.warning("worker %d died (exit code %s); starting a replacement", wid, proc.exitcode)
+                        log.warning("worker %d died (exit code %s); starting a replacement", wid,
+                                    slot["proc"].exitcode)
                         start()
-                if not slots and outstanding:
-                    for ident in pending:
-                        yield Outcome(ident.key, "failed", "no worker left to process it")
-                    return
-                continue
-            if kind == "init-failed":
-                raise BatchError(f"a worker could not start: {payload}")
-            if kind == "ready":
-                if wid == 0:
-                    log.info("GL: %s", payload)
-                slots[wid]["ready"] = True
-                feed(wid)
-            elif kind == "done":
-                outstanding -= 1
-                yield payload
-                if wid in slots:
-                    feed(wid)
     finally:
         for slot in slots.values():
             try:
-                slot["tasks"].put(None)
+                slot["conn"].send(None)
             except (OSError, ValueError):
                 pass
         for slot in slots.values():
