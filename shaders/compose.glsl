@@ -115,7 +115,7 @@ void main() {
     vec2 plane = texelFetch(u_plane, p, 0).rg;
     float sd = texelFetch(u_scene_depth, p, 0).r;
     uint label = texelFetch(u_labels, p, 0).r;
-    bool front = (u_front_labels[label >> 5u] & (1u << (label & 31u))) != 0u;
+    bool front = label_in_front(label);
 
     bool obj_vis = a > 0.0 && in_front(texelFetch(u_odepth, p, 0).r / max(a, 1e-6), sd, front);
     bool plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, sd, front);

@@ -20,6 +20,7 @@ import cv2
 import moderngl
 import numpy as np
 
+from .colour import linear_to_srgb, srgb_to_linear
 from .gl import GLContext
 from .render import RenderPasses, Roi
 
@@ -256,14 +257,6 @@ def reference_compose(R: np.ndarray, irpv: np.ndarray, ir: np.ndarray, alpha: np
 
     R (H, W, 3) uint8 sRGB; irpv, ir (H, W, 3) float linear; alpha (H, W) -> (H, W, 3) uint8.
     """
-    def to_lin(c):
-        c = np.clip(c, 0, 1)
-        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-    def to_srgb(c):
-        c = np.clip(c, 0, 1)
-        return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
-
     a = alpha[..., None]
-    lin = a * irpv + (1 - a) * (to_lin(R / 255.0) + irpv - ir)
-    return np.rint(to_srgb(lin) * 255).astype(np.uint8)
+    lin = a * irpv + (1 - a) * (srgb_to_linear(R / 255.0) + irpv - ir)
+    return np.rint(linear_to_srgb(lin) * 255).astype(np.uint8)

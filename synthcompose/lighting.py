@@ -51,6 +51,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
+from .colour import srgb_to_linear
 from .render import Lighting
 
 #: Rec. 709 luminance weights of linear RGB
@@ -73,8 +74,7 @@ OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27
 #: surface classes whose albedo is locally constant enough for the shading pairs
 SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
 
-_LUT = np.where(np.arange(256) / 255.0 <= 0.04045, np.arange(256) / 255.0 / 12.92,
-                ((np.arange(256) / 255.0 + 0.055) / 1.055) ** 2.4).astype(np.float32)
+_LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
 def _unit(c) -> np.ndarray:

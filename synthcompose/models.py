@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .colour import srgb_to_linear
 from .errors import ModelError
 
 #: prefix of a model built in code rather than read from a file
@@ -60,11 +61,6 @@ class Model:
 
 
 # ------------------------------------------------------------------ conversions
-def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 def _as_rgba_u8(img) -> np.ndarray:
     arr = np.asarray(img.convert("RGBA"), np.uint8)
     return np.ascontiguousarray(arr)
@@ -107,7 +103,7 @@ def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
             diffuse = getattr(mat, "diffuse", None)
             if diffuse is not None:
                 d = np.asarray(diffuse, np.float32) / 255.0
-                colors[:] = np.concatenate([_srgb_to_linear(d[:3]), d[3:]])
+                colors[:] = np.concatenate([srgb_to_linear(d[:3]), d[3:]])
             if getattr(mat, "image", None) is not None:
                 texture = _as_rgba_u8(mat.image)
                 colors[:] = (1.0, 1.0, 1.0, 1.0)
@@ -118,7 +114,7 @@ def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
             texture = None
     elif isinstance(visual, trimesh.visual.color.ColorVisuals) and visual.kind == "vertex":
         vc = np.asarray(visual.vertex_colors, np.float32) / 255.0
-        colors = np.concatenate([_srgb_to_linear(vc[:, :3]), vc[:, 3:]], axis=1).astype(np.float32)
+        colors = np.concatenate([srgb_to_linear(vc[:, :3]), vc[:, 3:]], axis=1).astype(np.float32)
     return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture)
 
 
@@ -178,7 +174,7 @@ def _load_assimp(path: Path) -> list[MeshPart]:
                 props = getattr(mesh.material, "properties", {}) or {}
                 diffuse = props.get(("diffuse", 0)) if hasattr(props, "get") else None
                 if diffuse is not None and len(diffuse) >= 3:
-                    color[:3] = _srgb_to_linear(np.asarray(diffuse[:3], np.float32))
+                    color[:3] = srgb_to_linear(np.asarray(diffuse[:3], np.float32))
                 n = len(pos)
                 parts.append(_finish_part(pos, nrm, np.zeros((n, 2)), np.tile(color, (n, 1)),
                                           np.tile([0.0, 0.6], (n, 1)), faces, None))
@@ -268,7 +264,7 @@ def _coloured(mesh, rgb_srgb, metallic=0.0, roughness=0.6, smooth=True) -> MeshP
     m = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
     part = _part_from_trimesh(m, smooth)
     n = len(part.positions)
-    col = np.tile(np.append(_srgb_to_linear(np.asarray(rgb_srgb, np.float32)), 1.0), (n, 1)).astype(np.float32)
+    col = np.tile(np.append(srgb_to_linear(np.asarray(rgb_srgb, np.float32)), 1.0), (n, 1)).astype(np.float32)
     return MeshPart(part.positions, part.normals, part.uvs, col,
                     np.tile(np.array([metallic, roughness], np.float32), (n, 1)), part.indices, None)
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import __version__
 from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
+from .colour import srgb_to_linear
 from .compose import CameraMatch, Composer, SceneLayers
 from .dataset import ImageSetId, read_image_set
 from .errors import InputError, SynthComposeError
@@ -70,11 +71,6 @@ def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) ->
     return class_id * INSTANCE_FACTOR + k
 
 
-def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: list[int]) -> tuple:
     """Median linear colour of the real ground seen under and around the object's footprint."""
     cam, depth = frame.camera, frame.depth
@@ -90,7 +86,7 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
     ok2 = np.isin(frame.label_ids[v, u], allowed) & (depth[v, u] >= z * 0.97 - 0.1)
     if ok2.sum() == 0:
         return (0.15, 0.15, 0.15)
-    lin = _srgb_to_linear(rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
+    lin = srgb_to_linear(rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
     return tuple(float(c) for c in np.median(lin, axis=0))
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from .dataset import ImageSetId
 from .errors import SynthComposeError
 from .geometry import Frame
+from .colour import linear_to_srgb
 from .labels import COLOR_LUT
 from .manifest import Manifest
 from .placement import ALLOWED_SURFACES, Placement
@@ -85,9 +86,7 @@ class View:
 
 
 def _to_srgb8(lin: np.ndarray) -> np.ndarray:
-    c = np.clip(lin, 0.0, 1.0)
-    c = np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
-    return np.rint(c * 255).astype(np.uint8)
+    return np.rint(linear_to_srgb(lin) * 255).astype(np.uint8)
 
 
 def _colormap(values: np.ndarray, valid: np.ndarray) -> np.ndarray:

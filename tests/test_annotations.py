@@ -313,24 +313,15 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
     from synthcompose.geometry import disparity_to_depth
     from synthcompose.labels import label_id
     from synthcompose.models import load_model
-    from synthcompose.placement import pose_matrix
     from synthcompose.render import Lighting, RenderObject, Renderer
+
+    from .test_placement_rules import pose_behind_a_pole
     from synthcompose.sample import random_scene, render_scene
 
     scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
     arrays = render_scene(scene)
     cam = scene.camera
-    for pole in scene.poles:  # a car on the road just behind a pole, across the line of sight
-        ray = np.array([pole.x - cam.x, pole.y - cam.y])
-        dist = np.hypot(*ray)
-        behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
-        if bool(scene.is_road(behind[0], behind[1])):
-            break
-    else:
-        pytest.skip("no pole in front of the road in this scene")
-    z = float(scene.ground_height(behind[0], behind[1]))
-    pose = pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
-                       float(np.arctan2(ray[1], ray[0]) + np.pi / 2))
+    pose = pose_behind_a_pole(scene)  # a car on the road just behind a pole
     model = load_model("builtin:box", (("length", 1.6),))
     renderer, composer = Renderer(gl_clean), Composer(gl_clean)
     passes = renderer.render(cam, [RenderObject(model, pose, (0.2, 0.2, 0.2))], Lighting.daylight(),

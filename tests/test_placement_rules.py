@@ -25,22 +25,26 @@ from .test_placement import SIZES
 POLE, CAR, ROAD = label_id("pole"), label_id("car"), label_id("road")
 
 
-def test_real_pole_in_front_hides_the_inserted_car(gl_clean):
-    scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
-    arrays = render_scene(scene)
+def pose_behind_a_pole(scene) -> np.ndarray:
+    """(4, 4) pose on the road 3 m behind a pole, across the line of sight (skips without one)."""
     cam = scene.camera
-    depth = disparity_to_depth(arrays["disparity"], cam)
-    # a pole with road visible behind it: put a car on that road, across the line of sight
     for pole in scene.poles:
         ray = np.array([pole.x - cam.x, pole.y - cam.y])
         dist = np.hypot(*ray)
         behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
         if bool(scene.is_road(behind[0], behind[1])):
-            break
-    else:
-        pytest.skip("no pole in front of the road in this scene")
-    z = float(scene.ground_height(behind[0], behind[1]))
-    m = pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]), math.atan2(ray[1], ray[0]) + math.pi / 2)
+            z = float(scene.ground_height(behind[0], behind[1]))
+            return pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
+                               math.atan2(ray[1], ray[0]) + math.pi / 2)
+    pytest.skip("no pole in front of the road in this scene")
+
+
+def test_real_pole_in_front_hides_the_inserted_car(gl_clean):
+    scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
+    arrays = render_scene(scene)
+    cam = scene.camera
+    depth = disparity_to_depth(arrays["disparity"], cam)
+    m = pose_behind_a_pole(scene)
     model = load_model("builtin:box", (("length", 1.6),))
     renderer, composer = Renderer(gl_clean), Composer(gl_clean)
     passes = renderer.render(cam, [RenderObject(model, m, (0.2, 0.2, 0.2))], Lighting.daylight(), photo=arrays["rgb"])

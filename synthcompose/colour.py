@@ -1,0 +1,16 @@
+"""sRGB transfer functions (IEC 61966-2-1) in NumPy; the GLSL twins are in shaders/common.glsl."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """sRGB-encoded values in [0, 1] (clipped) -> linear light."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    """Linear light (clipped to [0, 1]) -> sRGB-encoded values in [0, 1]."""
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
