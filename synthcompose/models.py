@@ -7,6 +7,9 @@ an object means putting O's origin on the ground.
 from __future__ import annotations
 
 import functools
+import io
+import json
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +39,12 @@ class MeshPart:
     material  : (N, 2) float32, (metallic, roughness)
     indices   : (M, 3) uint32
     texture   : (H, W, 4) uint8 sRGB base-colour texture or None; row 0 = v = 0
+    tangents  : (N, 4) float32 or None (None without a normal map): xyz the unit tangent along
+                +u, orthogonal to the normal; w = +-1 the handedness, bitangent = w * (normal x
+                tangent), pointing to -v (up in the texture image), as glTF's TANGENT
+    normal_texture : (H, W, 4) uint8 tangent-space normal map (linear, glTF: +x along the
+                tangent, +y along the bitangent) or None; row 0 = v = 0
+    normal_scale   : glTF normalTexture.scale, multiplies the map's x and y
     """
 
     positions: np.ndarray
@@ -45,6 +54,9 @@ class MeshPart:
     material: np.ndarray
     indices: np.ndarray
     texture: np.ndarray | None
+    tangents: np.ndarray | None = None
+    normal_texture: np.ndarray | None = None
+    normal_scale: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,8 +78,70 @@ def _as_rgba_u8(img) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
-    """Convert one trimesh.Trimesh (transform already applied) to a MeshPart."""
+def vertex_tangents(positions, normals, uvs, faces) -> np.ndarray:
+    """(N, 4) float32 per-vertex tangents in :class:`MeshPart`'s convention, from the geometry.
+
+    ``uvs`` as in MeshPart (glTF's: v grows down the image). Each triangle adds its dP/du and
+    dP/dv weighted by its UV area (so triangles with degenerate UVs add nothing); the sum is
+    made orthogonal to the vertex normal (Gram-Schmidt) and w = -1 where the UV mapping is
+    mirrored. A vertex with no usable tangent gets any unit vector orthogonal to its normal.
+    """
+    pos = np.asarray(positions, np.float64)
+    uv = np.asarray(uvs, np.float64)
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    e1, e2 = pos[f[:, 1]] - pos[f[:, 0]], pos[f[:, 2]] - pos[f[:, 0]]
+    d1, d2 = uv[f[:, 1]] - uv[f[:, 0]], uv[f[:, 2]] - uv[f[:, 0]]
+    sign = np.sign(d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1])[:, None]
+    # (dP/du, dP/dv) * det: the inverse of the UV edge matrix times the position edges
+    face_t = (d2[:, 1:2] * e1 - d1[:, 1:2] * e2) * sign
+    face_b = (d1[:, 0:1] * e2 - d2[:, 0:1] * e1) * sign
+    tan = np.zeros_like(pos)
+    bit = np.zeros_like(pos)
+    corners = f.reshape(-1)
+    np.add.at(tan, corners, np.repeat(face_t, 3, axis=0))
+    np.add.at(bit, corners, np.repeat(face_b, 3, axis=0))
+    # glTF's bitangent points to -v (image up): mirrored where dP/dv agrees with n x t
+    w = np.where(np.einsum("ij,ij->i", np.cross(np.asarray(normals, np.float64), tan), bit) > 0, -1.0, 1.0)
+    return _orthonormal_tangents(tan, w, normals)
+
+
+def _orthonormal_tangents(tan, w, normals) -> np.ndarray:
+    """(N, 4) float32: ``tan`` made unit and orthogonal to ``normals``, ``w`` appended."""
+    nrm = np.asarray(normals, np.float64)
+    nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+    tan = np.asarray(tan, np.float64)
+    before = np.linalg.norm(tan, axis=1, keepdims=True)
+    tan = tan - nrm * np.einsum("ij,ij->i", nrm, tan)[:, None]
+    length = np.linalg.norm(tan, axis=1, keepdims=True)
+    # none, or (almost) along the normal: any direction orthogonal to the normal
+    other = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    spare = np.cross(nrm, other)
+    spare /= np.maximum(np.linalg.norm(spare, axis=1, keepdims=True), 1e-12)
+    ok = (length > 1e-6 * before) & (length > 0)
+    tan = np.where(ok, tan / np.where(ok, length, 1.0), spare)
+    return np.concatenate([tan, np.asarray(w, np.float64).reshape(-1, 1)], axis=1).astype(np.float32)
+
+
+def _file_tangents(mesh, linear: np.ndarray | None) -> np.ndarray | None:
+    """The file's own TANGENT attribute (see :func:`_load_trimesh`) taken through the node
+    transform ``linear`` (3, 3) that trimesh applied to the positions, or None."""
+    tan = mesh.vertex_attributes.get(_TANGENT_ALIAS)
+    if tan is None or linear is None:
+        return None
+    tan = np.asarray(tan, np.float64)
+    if tan.ndim != 2 or tan.shape != (len(mesh.vertices), 4) or not np.isfinite(tan).all():
+        return None
+    w = np.where(tan[:, 3] < 0, -1.0, 1.0) * (1.0 if np.linalg.det(linear) >= 0 else -1.0)
+    return np.concatenate([tan[:, :3] @ np.asarray(linear, np.float64).T, w[:, None]], axis=1)
+
+
+def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | None = None,
+                       linear: np.ndarray | None = None) -> MeshPart:
+    """Convert one trimesh.Trimesh (transform already applied) to a MeshPart.
+
+    ``normal_scales``: the glTF materials that keep their normal map (name -> scale, see
+    :func:`_load_trimesh`); ``linear``: the (3, 3) node transform applied, for file tangents.
+    """
     import trimesh
 
     if not smooth:
@@ -83,6 +157,7 @@ def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
     colors[:, 3] = 1.0
     metal_rough = np.tile(np.array([0.0, 0.6], np.float32), (n, 1))
     texture = None
+    normal_texture, normal_scale = None, 1.0
     visual = mesh.visual
     if isinstance(visual, trimesh.visual.texture.TextureVisuals):
         mat = visual.material
@@ -99,6 +174,9 @@ def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
                 metal_rough[:, 1] = mat.roughnessFactor
             if mat.baseColorTexture is not None:
                 texture = _as_rgba_u8(mat.baseColorTexture)
+            if mat.normalTexture is not None and normal_scales and mat.name in normal_scales:
+                normal_texture = _as_rgba_u8(mat.normalTexture)
+                normal_scale = normal_scales[mat.name]
         else:  # SimpleMaterial (OBJ .mtl)
             diffuse = getattr(mat, "diffuse", None)
             if diffuse is not None:
@@ -107,18 +185,27 @@ def _part_from_trimesh(mesh, smooth: bool) -> MeshPart:
             if getattr(mat, "image", None) is not None:
                 texture = _as_rgba_u8(mat.image)
                 colors[:] = (1.0, 1.0, 1.0, 1.0)
-        if texture is not None and visual.uv is not None and len(visual.uv) == n:
+        if (texture is not None or normal_texture is not None) and visual.uv is not None and len(visual.uv) == n:
             uvs = np.asarray(visual.uv, np.float32)
             uvs = np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1)  # image row 0 at v = 0
         else:
-            texture = None
+            texture = normal_texture = None
     elif isinstance(visual, trimesh.visual.color.ColorVisuals) and visual.kind == "vertex":
         vc = np.asarray(visual.vertex_colors, np.float32) / 255.0
         colors = np.concatenate([srgb_to_linear(vc[:, :3]), vc[:, 3:]], axis=1).astype(np.float32)
-    return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture)
+    tangents = None
+    if normal_texture is not None:
+        tangents = _file_tangents(mesh, linear)
+        if tangents is None:
+            tangents = vertex_tangents(mesh.vertices, normals, uvs, mesh.faces)
+        else:
+            tangents = _orthonormal_tangents(tangents[:, :3], tangents[:, 3], normals)
+    return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture,
+                        tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale)
 
 
-def _finish_part(positions, normals, uvs, colors, material, faces, texture) -> MeshPart:
+def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
+                 normal_texture=None, normal_scale=1.0) -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
     glass = colors[:, 3] < 0.5
     if glass.any():  # transparent glass: render as dark glossy opaque surface
@@ -134,14 +221,91 @@ def _finish_part(positions, normals, uvs, colors, material, faces, texture) -> M
         material=np.asarray(material, np.float32),
         indices=np.asarray(faces, np.uint32).reshape(-1, 3),
         texture=texture,
+        tangents=None if tangents is None else np.asarray(tangents, np.float32),
+        normal_texture=normal_texture,
+        normal_scale=float(normal_scale),
     )
+
+
+# trimesh drops a glTF's TANGENT attribute and normalTexture.scale; a file with normal maps is
+# handed to it with its JSON edited in memory: TANGENT also under this name (trimesh keeps
+# attributes whose name starts with "_") and each normal-mapped material renamed to a key of
+# the scales (the renderer does not use material names)
+_TANGENT_ALIAS = "_SYNTHCOMPOSE_TANGENT"
+_MATERIAL_KEY = "synthcompose-normal-mapped-material-{}"
+_GLB_MAGIC, _GLB_JSON = 0x46546C67, 0x4E4F534A
+
+
+def _gltf_json(path: Path, data: bytes) -> dict | None:
+    """The JSON of a .gltf/.glb file's bytes, or None when it cannot be read as such."""
+    try:
+        if path.suffix.lower() == ".glb":
+            magic, _, _, length, kind = struct.unpack_from("<5I", data)
+            if magic != _GLB_MAGIC or kind != _GLB_JSON:
+                return None
+            data = data[20:20 + length]
+        header = json.loads(data)
+    except (struct.error, ValueError, UnicodeDecodeError):
+        return None
+    return header if isinstance(header, dict) else None
+
+
+def _with_json(path: Path, data: bytes, header: dict) -> bytes:
+    """The file's bytes with its JSON replaced by ``header``."""
+    text = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    if path.suffix.lower() != ".glb":
+        return text
+    text += b" " * (-len(text) % 4)  # chunks are 4-byte aligned, JSON padded with spaces
+    (length,) = struct.unpack_from("<I", data, 12)
+    rest = data[20 + length:]  # the BIN chunk (and any others), unchanged
+    total = 12 + 8 + len(text) + len(rest)
+    return struct.pack("<5I", _GLB_MAGIC, 2, total, len(text), _GLB_JSON) + text + rest
+
+
+def _normal_mapped(header: dict) -> dict[str, float]:
+    """Edit ``header`` as described above; the renamed materials' normal scales."""
+    scales = {}
+    for i, mat in enumerate(header.get("materials") or []):
+        info = mat.get("normalTexture") if isinstance(mat, dict) else None
+        if not isinstance(info, dict):
+            continue
+        if info.get("texCoord", 0) != 0:  # trimesh reads TEXCOORD_0 only
+            del mat["normalTexture"]
+            continue
+        mat["name"] = _MATERIAL_KEY.format(i)
+        scale = info.get("scale", 1.0)
+        scales[mat["name"]] = float(scale) if isinstance(scale, (int, float)) else 1.0
+    for mesh in header.get("meshes") or []:
+        for prim in (mesh.get("primitives") or []) if isinstance(mesh, dict) else []:
+            attrs = prim.get("attributes") if isinstance(prim, dict) else None
+            if isinstance(attrs, dict) and "TANGENT" in attrs:
+                attrs[_TANGENT_ALIAS] = attrs["TANGENT"]
+    return scales
+
+
+def _trimesh_source(path: Path):
+    """What to hand trimesh.load for ``path`` (its name, or the edited glTF when it has normal
+    maps), the keyword arguments that go with it, and the normal scales."""
+    import trimesh
+
+    if path.suffix.lower() not in (".gltf", ".glb"):
+        return str(path), {}, {}
+    data = path.read_bytes()
+    header = _gltf_json(path, data)
+    materials = header.get("materials") if header is not None else None
+    if not isinstance(materials, list) or not any(isinstance(m, dict) and "normalTexture" in m for m in materials):
+        return str(path), {}, {}
+    scales = _normal_mapped(header)
+    kwargs = {"file_type": path.suffix.lower()[1:], "resolver": trimesh.resolvers.FilePathResolver(str(path))}
+    return io.BytesIO(_with_json(path, data, header)), kwargs, scales
 
 
 def _load_trimesh(path: Path) -> list[MeshPart]:
     import trimesh
 
     try:
-        scene = trimesh.load(str(path), force="scene", process=False)
+        source, kwargs, scales = _trimesh_source(path)
+        scene = trimesh.load(source, force="scene", process=False, **kwargs)
     except Exception as exc:  # trimesh raises many types for bad files
         raise ModelError(path, f"cannot be read as a mesh ({type(exc).__name__}: {exc})") from None
     smooth = path.suffix.lower() not in (".stl",)
@@ -149,7 +313,10 @@ def _load_trimesh(path: Path) -> list[MeshPart]:
     for mesh in scene.dump():
         if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
             continue
-        parts.append(_part_from_trimesh(mesh, smooth))
+        linear = None
+        if scales and mesh.metadata.get("node") in scene.graph.nodes:
+            linear = np.asarray(scene.graph[mesh.metadata["node"]][0], np.float64)[:3, :3]
+        parts.append(_part_from_trimesh(mesh, smooth, scales, linear))
     return parts
 
 
@@ -226,8 +393,11 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
         nrm = p.normals @ rot.T
         length = np.linalg.norm(nrm, axis=1, keepdims=True)
         nrm = np.where(length > 1e-12, nrm / np.maximum(length, 1e-12), np.array([0, 0, 1], np.float32))
+        tan = None
+        if p.tangents is not None:  # a rotation: still unit and orthogonal to the normals
+            tan = np.concatenate([p.tangents[:, :3] @ rot.T, p.tangents[:, 3:]], axis=1).astype(np.float32)
         out.append(MeshPart(((q - offset) * scale).astype(np.float32), nrm.astype(np.float32), p.uvs,
-                            p.colors, p.material, p.indices, p.texture))
+                            p.colors, p.material, p.indices, p.texture, tan, p.normal_texture, p.normal_scale))
     return Model(key, tuple(out), tuple(float(e * scale) for e in ext))
 
 
