@@ -7,6 +7,7 @@ layout(location = 1) in vec3 in_normal;
 layout(location = 2) in vec2 in_uv;
 layout(location = 3) in vec4 in_color;
 layout(location = 4) in vec2 in_material;
+layout(location = 5) in vec4 in_tangent;   // bound only for parts with a normal map
 uniform mat4 u_model;
 uniform mat4 u_view;
 uniform mat4 u_proj;
@@ -15,6 +16,7 @@ out vec3 v_normal;
 out vec2 v_uv;
 out vec4 v_color;
 out vec2 v_material;
+out vec4 v_tangent;
 out float v_depth;
 flat out float v_ground_z;   // height of the object's contact point (reflection proxy)
 void main() {
@@ -25,6 +27,7 @@ void main() {
     v_uv = in_uv;
     v_color = in_color;
     v_material = in_material;
+    v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w);
     v_depth = optical.z;
     v_ground_z = u_model[3].z;
     gl_Position = u_proj * optical;
@@ -36,12 +39,16 @@ in vec3 v_normal;
 in vec2 v_uv;
 in vec4 v_color;
 in vec2 v_material;
+in vec4 v_tangent;              // (tangent along +u, handedness): glTF's TANGENT (models.py)
 in float v_depth;
 flat in float v_ground_z;
 uniform bool u_is_plane;        // ground plane (Ir / Irpv) or object
 uniform bool u_shadows;         // false for Ir: the plane alone, nothing casts shadows
 uniform bool u_has_texture;
 uniform sampler2D u_texture;    // sRGB base colour
+uniform bool u_has_normal_map;
+uniform sampler2D u_normal_map; // tangent-space normals (linear), glTF's normalTexture
+uniform float u_normal_scale;   // its scale: multiplies the map's x and y
 uniform vec3 u_plane_albedo;    // linear; used when u_plane_from_photo is false
 uniform bool u_plane_from_photo; // plane albedo = photo / unshadowed irradiance, per pixel
 uniform sampler2D u_photo;      // the photo's region of interest, sRGB
@@ -111,10 +118,25 @@ vec3 environment(vec3 p, vec3 r, float roughness) {
     return mix(fallback, photo, inside);
 }
 
+// The shading normal from the normal map, in the tangent frame (T, B, N) of the side seen:
+// n is the interpolated normal already turned towards the viewer, side -1 when it was turned
+// (a back face turns T and B too); B = w * (N x T) points to -v, up in the map (glTF).
+vec3 normal_from_map(vec3 n, float side) {
+    vec3 t = side * v_tangent.xyz;
+    t -= n * dot(n, t);
+    if (dot(t, t) < 1e-12) return n;
+    t = normalize(t);
+    vec3 b = side * v_tangent.w * cross(n, t);
+    vec3 m = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
+    m.xy *= u_normal_scale;
+    return normalize(mat3(t, b, n) * m);
+}
+
 void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_pos - v_world);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
+    if (u_has_normal_map && !u_is_plane) n = normal_from_map(n, dot(n, v_normal) < 0.0 ? -1.0 : 1.0);
     vec3 albedo;
     float metallic, roughness;
     // the sun that reaches this point: the object's, or on the plane the real ground's own

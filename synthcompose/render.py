@@ -167,8 +167,30 @@ def _gl(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
 
 
+@dataclass(frozen=True)
+class _GpuMaps:
+    """The textures of one part: sRGB base colour and linear tangent-space normal map."""
+
+    base: moderngl.Texture | None
+    normal: moderngl.Texture | None = None
+    normal_scale: float = 1.0
+
+
+def _mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
+    """An RGBA8 texture of ``image`` (H, W, 4) uint8, repeating, trilinear."""
+    tex = gl.texture((image.shape[1], image.shape[0]), 4, image, filter_linear=True)
+    tex.build_mipmaps()
+    tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = True
+    return tex
+
+
 class _GpuModel:
-    """Vertex arrays of one model for each program that draws it."""
+    """Vertex arrays of one model for each program that draws it.
+
+    A part with a normal map also gets its tangents, in a buffer of their own (``in_tangent``);
+    the others keep the one interleaved buffer and leave that attribute unbound.
+    """
 
     def __init__(self, gl: GLContext, model: Model, programs: dict[str, moderngl.Program]) -> None:
         self.parts = []
@@ -177,21 +199,21 @@ class _GpuModel:
                                   axis=1).astype(np.float32)
             vbo = gl.own(gl.ctx.buffer(data.tobytes()))
             ibo = gl.own(gl.ctx.buffer(part.indices.astype(np.uint32).tobytes()))
-            tex = None
-            if part.texture is not None:
-                tex = gl.texture((part.texture.shape[1], part.texture.shape[0]), 4, part.texture,
-                                 filter_linear=True)
-                tex.build_mipmaps()
-                tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-                tex.repeat_x = tex.repeat_y = True
+            maps = _GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
+            tbo = None
+            if part.normal_texture is not None and part.tangents is not None:
+                maps = replace(maps, normal=_mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
+                tbo = gl.own(gl.ctx.buffer(np.ascontiguousarray(part.tangents, np.float32).tobytes()))
             vaos = {}
             for name, prog in programs.items():
                 if name == "lit":
                     fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
+                    if tbo is not None:
+                        fmt.append((tbo, "4f", "in_tangent"))
                 else:
                     fmt = [(vbo, "3f 44x", "in_position")]
                 vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
-            self.parts.append((vaos, tex))
+            self.parts.append((vaos, maps))
 
 
 class Renderer:
@@ -307,6 +329,7 @@ class Renderer:
         prog["u_sky_matrix"].write(_gl(_BIAS @ sky_mat))
         prog["u_sky_radius"].value = 0.5 / (2 * half)  # 0.5 m in map units
         prog["u_texture"].value = 0
+        prog["u_normal_map"].value = 6
         prog["u_sun_map"].value = 1
         prog["u_sky_map"].value = 2
         prog["u_photo"].value = 3
@@ -327,6 +350,7 @@ class Renderer:
         self.shadow_maps[1][0].use(2)
         (tex["photo"] if photo is not None else self._blank).use(3)
         self._blank.use(0)
+        self._blank.use(6)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
@@ -336,6 +360,7 @@ class Renderer:
             prog["u_shadows"].value = with_objects
             prog["u_is_plane"].value = True
             prog["u_has_texture"].value = False
+            prog["u_has_normal_map"].value = False
             for obj in objects:
                 hx, hy = obj.plane_half(lighting)
                 scale = np.diag([hx, hy, 1.0, 1.0])
@@ -349,10 +374,14 @@ class Renderer:
                 for obj in objects:
                     prog["u_model"].write(_gl(obj.vehicle_from_object))
                     prog["u_sun_scale"].value = float(obj.sun_visibility)
-                    for vaos, texture in self._gpu_model(obj.model).parts:
-                        prog["u_has_texture"].value = texture is not None
-                        if texture is not None:
-                            texture.use(0)
+                    for vaos, maps in self._gpu_model(obj.model).parts:
+                        prog["u_has_texture"].value = maps.base is not None
+                        if maps.base is not None:
+                            maps.base.use(0)
+                        prog["u_has_normal_map"].value = maps.normal is not None
+                        if maps.normal is not None:
+                            maps.normal.use(6)
+                            prog["u_normal_scale"].value = maps.normal_scale
                         vaos["lit"].render(moderngl.TRIANGLES)
                 ctx.copy_framebuffer(resolve, ms_fbo)
             else:
