@@ -17,7 +17,9 @@ then must pass, cheapest first:
    the box projects inside the box's image rectangle), then the strict oriented-box test.
    :func:`prefilter` is the paper's lenient all-points pre-filter, kept for comparison.
 
-Every rejection is counted by reason and returned with the result.
+Every rejection is counted by reason and returned with the result. Steps 1-6 (less the
+candidate's own tests) are the methods of :class:`PoseTests`; :func:`check_pose` runs them on
+a pose given outright (an object moved by hand in the preview) and names the rule it breaks.
 """
 from __future__ import annotations
 
@@ -434,6 +436,224 @@ class _TracedCounter(Counter):
         super().__setitem__(key, value)
 
 
+# ------------------------------------------------------------------- the rules of one pose
+#: the placement rule each rejection reason belongs to (the preview names it)
+RULE_OF: dict[str, str] = {
+    "partly behind the camera": "in view",
+    "not fully inside the image": "truncation",
+    "footprint outside the image": "ground support",
+    "footprint hidden": "ground support",
+    "footprint off the allowed surface": "ground support",
+    "footprint crosses a kerb line": "ground support",
+    "too few ground points": "ground plane",
+    "ground not planar (step or kerb)": "ground plane",
+    "ground not flat (rms too high)": "ground plane",
+    "ground too steep": "ground plane",
+    "candidate point is off the fitted ground (kerb face, noise)": "ground plane",
+    "object is off the fitted ground": "ground plane",
+    "too much hidden by the scene": "max occluded share",
+    "too few visible pixels": "min visible pixels",
+    "would hide an object placed before": "max occluded share",
+    "overlaps another inserted object": "collision",
+    "intersects the scene": "collision",
+}
+#: a pose given outright may be this far above or below the ground it is checked against, metres
+POSE_GROUND_SEARCH = 2.0
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """Why a pose breaks a placement rule: ``reason`` as the record counts it, ``detail`` the
+    measurement behind it (for people; empty where there is nothing to add)."""
+
+    reason: str
+    detail: str = ""
+
+    @property
+    def rule(self) -> str:
+        return RULE_OF.get(self.reason, "placement")
+
+    def __str__(self) -> str:
+        return f"{self.rule}: {self.reason}" + (f" ({self.detail})" if self.detail else "")
+
+
+@dataclass(frozen=True)
+class GroundFit:
+    """The robust plane z = a x + b y + c of the allowed ground around a point (V, metres)."""
+
+    coef: tuple[float, float, float]
+    rms: float
+    normal: np.ndarray  # (3,) unit, z > 0
+
+    def height(self, x, y):
+        a, b, c = self.coef
+        return a * x + b * y + c
+
+
+@dataclass(frozen=True, eq=False)
+class PoseTests:
+    """The placement rules for poses of one object (``extents``, l, w, h metres) in one frame,
+    cheapest first: :func:`place_object` runs them on its candidates, :func:`check_pose` on a
+    pose given outright (the preview's hand-moved objects). Each returns a :class:`Rejection`
+    or None."""
+
+    frame: Frame
+    extents: tuple[float, float, float]
+    rules: PlacementRules
+    allowed: tuple[str, ...]
+    allowed_ids: np.ndarray
+    edges: np.ndarray  # (N, 2) kerb-line points of the allowed surface (ground plan)
+    grid: np.ndarray  # (45, 3) footprint samples in the object frame, footprint_margin beyond it
+    reach: float  # half-side of the square searched for ground points, metres
+    min_up: float  # least z of a ground-like surface normal
+
+    @classmethod
+    def of(cls, frame: Frame, extents, rules: PlacementRules, allowed: Sequence[str]) -> "PoseTests":
+        allowed_ids = np.array([label_id(n) for n in allowed])
+        l, w, _ = extents
+        fm = rules.footprint_margin
+        gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
+        grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+        return cls(frame, extents, rules, tuple(allowed), allowed_ids, surface_edges(frame, allowed_ids), grid,
+                   math.hypot(l, w) / 2 + 0.5, math.cos(math.radians(2 * rules.max_ground_tilt_deg)))
+
+    def image(self, m: np.ndarray) -> Rejection | None:
+        """Cheap tests in the image: object on screen, footprint on seen, supported, allowed ground."""
+        frame, rules, camera, depth = self.frame, self.rules, self.frame.camera, self.frame.depth
+        l, w, _ = self.extents
+        H, W = frame.label_ids.shape
+        corners_o = frame.to_optical(box_corners(m, self.extents))
+        if (corners_o[:, 2] <= 1.0).any():
+            return Rejection("partly behind the camera", f"a corner {corners_o[:, 2].min():.2f} m in front of it")
+        uv = camera.project(corners_o)
+        out = (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any()
+        if out and not rules.allow_truncation:
+            return Rejection("not fully inside the image", "the box crosses the image border and truncation is off")
+        foot_o = frame.to_optical(self.grid @ m[:3, :3].T + m[:3, 3])
+        fuv = np.rint(camera.project(foot_o)).astype(int)
+        on_screen = (fuv[:, 0] >= 0) & (fuv[:, 0] < W) & (fuv[:, 1] >= 0) & (fuv[:, 1] < H)
+        if on_screen.mean() < 0.5:
+            return Rejection("footprint outside the image", f"{on_screen.mean():.0%} of it on screen, needs 50%")
+        fu, fv, foot_d = fuv[on_screen, 0], fuv[on_screen, 1], foot_o[on_screen, 2]
+        scene_d = depth[fv, fu]
+        tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
+        # seen: known depth (disparity holes say nothing) and not behind something nearer
+        seen = np.isfinite(scene_d) & (scene_d >= foot_d - tol)
+        if seen.sum() < 0.3 * len(seen):
+            return Rejection("footprint hidden", f"{seen.mean():.0%} of it seen, needs 30%")
+        # a seen sample is supported when the real ground is there: allowed label, same
+        # depth, and a ground-like surface (not the face of a kerb; unknown next to a hole)
+        supported = np.isin(frame.label_ids[fv, fu], self.allowed_ids) & (scene_d <= foot_d + tol)
+        up = surface_normals(depth, camera, fv, fu)[:, 2]
+        supported &= ~(up < self.min_up)  # NaN (a hole nearby) does not count against
+        share = supported[seen].mean()
+        if share < rules.min_footprint_allowed:
+            return Rejection("footprint off the allowed surface",
+                             f"{share:.0%} of the seen footprint on level {'/'.join(self.allowed)} ground at its "
+                             f"height, needs {rules.min_footprint_allowed:.0%}")
+        # no kerb line of the surface under the footprint (also where its face is unresolved)
+        c, edges, reach = m[:3, 3], self.edges, self.reach
+        close = edges[(np.abs(edges[:, 0] - c[0]) <= reach + 1) & (np.abs(edges[:, 1] - c[1]) <= reach + 1)]
+        if len(close):
+            local = (close - c[:2]) @ m[:2, :2]
+            if ((np.abs(local[:, 0]) <= l / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= w / 2 + KERB_CLEARANCE)).any():
+                return Rejection("footprint crosses a kerb line", f"a kerb within {KERB_CLEARANCE} m of the footprint")
+        return None
+
+    def ground(self, point: np.ndarray, dz: float = 0.3) -> tuple[GroundFit | None, Rejection | None]:
+        """Robust plane through the allowed, ground-like points around ``point`` (V), found through
+        the pixel grid (the square of side 2 * reach, ``dz`` above and below it, projected)."""
+        frame, rules, reach = self.frame, self.rules, self.reach
+        square = point + np.array([[sx * reach, sy * reach, d] for sx in (-1, 1) for sy in (-1, 1)
+                                   for d in (-dz, dz)])
+        rect = frame.box_rect(square)
+        near = np.empty((0, 3))
+        if rect is not None:
+            pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True)
+            sel = np.flatnonzero(np.isin(labs, self.allowed_ids) & (np.abs(pts[:, 0] - point[0]) <= reach)
+                                 & (np.abs(pts[:, 1] - point[1]) <= reach))
+            # only ground-like surfaces: kerb faces and walls of an allowed label do not count
+            sel = sel[surface_normals(frame.depth, frame.camera, rr[sel], cc[sel])[:, 2] >= self.min_up]
+            near = pts[sel]
+        fit = fit_ground(near, point) if len(near) >= rules.min_ground_points else None
+        if fit is None:
+            return None, Rejection("too few ground points",
+                                   f"{len(near)} {'/'.join(self.allowed)} points around it, needs {rules.min_ground_points}")
+        (a, b, c), rms, inliers = fit
+        normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)
+        ground = GroundFit((a, b, c), rms, normal)
+        if inliers < rules.min_ground_inliers * len(near):
+            return ground, Rejection("ground not planar (step or kerb)",
+                                     f"{inliers / len(near):.0%} of the ground points on one plane, "
+                                     f"needs {rules.min_ground_inliers:.0%}")
+        if rms > rules.max_ground_rms:
+            return ground, Rejection("ground not flat (rms too high)", f"rms {rms:.3f} m > {rules.max_ground_rms} m")
+        tilt = math.degrees(math.acos(normal[2]))
+        if tilt > rules.max_ground_tilt_deg:
+            return ground, Rejection("ground too steep", f"{tilt:.1f} deg > {rules.max_ground_tilt_deg} deg")
+        return ground, None
+
+    def visibility(self, m: np.ndarray, others: Sequence[Placement] = ()) -> tuple[Rejection | None, float, float]:
+        """The visibility rules against the real depth and ``others`` placed before; also
+        returns (share of the object inside the image, share hidden)."""
+        rules = self.rules
+        in_image, hidden, area = _visibility(self.frame, m, self.extents, others)
+        if hidden > rules.max_occluded_fraction:
+            why = Rejection("too much hidden by the scene",
+                            f"{hidden:.0%} hidden, at most {rules.max_occluded_fraction:.0%}")
+            return why, in_image, hidden
+        visible = area * in_image * (1.0 - hidden)
+        if visible < rules.min_visible_pixels:
+            why = Rejection("too few visible pixels", f"about {visible:.0f} seen, needs {rules.min_visible_pixels}")
+            return why, in_image, hidden
+        if others and _hides_others(self.frame, m, self.extents, others, rules):
+            why = Rejection("would hide an object placed before",
+                            f"it would leave one more than {rules.max_occluded_fraction:.0%} hidden")
+            return why, in_image, hidden
+        return None, in_image, hidden
+
+    def overlap(self, m: np.ndarray, other_prints: Sequence[np.ndarray]) -> Rejection | None:
+        """No overlap with the footprints (grown by half the object gap) of objects placed before."""
+        mine = footprint_corners(m, self.extents, self.rules.object_gap / 2)
+        if any(footprints_overlap(mine, o) for o in other_prints):
+            return Rejection("overlaps another inserted object", f"closer than {self.rules.object_gap} m")
+        return None
+
+    def scene(self, m: np.ndarray) -> Rejection | None:
+        """No scene point inside the box: the pixel grid as index, then the strict test."""
+        frame, rules = self.frame, self.rules
+        rect = frame.box_rect(box_corners(m, self.extents, rules.margin))
+        pts, _ = frame.rect_points(*rect) if rect else (np.empty((0, 3)), None)
+        inside = int(strict_inside(pts, m, self.extents, rules.clearance, rules.margin).sum())
+        if inside >= rules.min_collision_points:
+            return Rejection("intersects the scene", f"{inside} scene points inside the box")
+        return None
+
+
+def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules: PlacementRules,
+               allowed: Sequence[str] | None = None, others: Sequence[Placement] = ()) -> Rejection | None:
+    """The batch's placement rules on a pose given outright (moved by hand in the preview, or
+    saved): the first rule it breaks, or None when the batch would have accepted it. ``others``:
+    the objects placed before it. Orientation rules (road direction, parked, junctions) are
+    about drawing candidates and are not checked."""
+    tests = PoseTests.of(frame, extents, rules, tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",))))
+    m = np.asarray(matrix, float)
+    why = tests.image(m)
+    if why:
+        return why
+    ground, why = tests.ground(m[:3, 3], dz=POSE_GROUND_SEARCH)
+    if why:
+        return why
+    foot = box_corners(m, extents)[::2]  # the 4 bottom corners
+    gap = float(np.abs(foot[:, 2] - ground.height(foot[:, 0], foot[:, 1])).max())
+    if gap > rules.max_ground_rms + 0.02:
+        return Rejection("object is off the fitted ground", f"a footprint corner {gap:.2f} m from the ground plane")
+    prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
+    # collisions before visibility (the batch's order is the other way round): an object moved
+    # onto another is said to collide, not to be hidden by it
+    return tests.overlap(m, prints) or tests.scene(m) or tests.visibility(m, others)[0]
+
+
 def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
                  rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
                  others: Sequence[Placement] = (), trace: list | None = None) -> PlacementResult:
@@ -446,60 +666,18 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     if orientation not in ORIENTATIONS:
         raise ValueError(f"unknown orientation {orientation!r}")
     allowed_ids = np.array([label_id(n) for n in allowed])
-    camera, depth, label_ids = frame.camera, frame.depth, frame.label_ids
+    camera, depth = frame.camera, frame.depth
     rejections: Counter[str] = Counter() if trace is None else _TracedCounter(trace)
     candidates = _Candidates(frame, allowed_ids, rules.distance)
     lo, hi = rules.distance
     if len(candidates) == 0:
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
-    edges = surface_edges(frame, allowed_ids)
+    tests = PoseTests.of(frame, extents, rules, allowed)
+    edges = tests.edges
     jitter = math.radians(rules.yaw_jitter_deg)
-    min_up = math.cos(math.radians(2 * rules.max_ground_tilt_deg))
     l, w, h = extents
-    reach = math.hypot(l, w) / 2 + 0.5
     other_prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
-    H, W = label_ids.shape
-    fm = rules.footprint_margin
-    gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
-    grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
-
-    def image_check(m: np.ndarray) -> str | None:
-        """Cheap tests in the image: object on screen, footprint on seen allowed ground."""
-        corners_o = frame.to_optical(box_corners(m, extents))
-        if (corners_o[:, 2] <= 1.0).any():
-            return "partly behind the camera"
-        uv = camera.project(corners_o)
-        out = (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any()
-        if out and not rules.allow_truncation:
-            return "not fully inside the image"
-        foot_o = frame.to_optical(grid @ m[:3, :3].T + m[:3, 3])
-        fuv = np.rint(camera.project(foot_o)).astype(int)
-        on_screen = (fuv[:, 0] >= 0) & (fuv[:, 0] < W) & (fuv[:, 1] >= 0) & (fuv[:, 1] < H)
-        if on_screen.mean() < 0.5:
-            return "footprint outside the image"
-        fu, fv, foot_d = fuv[on_screen, 0], fuv[on_screen, 1], foot_o[on_screen, 2]
-        scene_d = depth[fv, fu]
-        tol = SUPPORT_TOL_REL * foot_d + SUPPORT_TOL_ABS
-        # seen: known depth (disparity holes say nothing) and not behind something nearer
-        seen = np.isfinite(scene_d) & (scene_d >= foot_d - tol)
-        if seen.sum() < 0.3 * len(seen):
-            return "footprint hidden"
-        # a seen sample is supported when the real ground is there: allowed label, same
-        # depth, and a ground-like surface (not the face of a kerb; unknown next to a hole)
-        supported = np.isin(label_ids[fv, fu], allowed_ids) & (scene_d <= foot_d + tol)
-        up = surface_normals(depth, camera, fv, fu)[:, 2]
-        supported &= ~(up < min_up)  # NaN (a hole nearby) does not count against
-        if supported[seen].mean() < rules.min_footprint_allowed:
-            return "footprint off the allowed surface"
-        # no kerb line of the surface under the footprint (also where its face is unresolved)
-        c = m[:3, 3]
-        close = edges[(np.abs(edges[:, 0] - c[0]) <= reach + 1) & (np.abs(edges[:, 1] - c[1]) <= reach + 1)]
-        if len(close):
-            local = (close - c[:2]) @ m[:2, :2]
-            if ((np.abs(local[:, 0]) <= l / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= w / 2 + KERB_CLEARANCE)).any():
-                return "footprint crosses a kerb line"
-        return None
 
     for attempt in range(1, rules.max_attempts + 1):
         idx = candidates.draw(rng)
@@ -509,7 +687,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
             rejections.point = point
         # 1. the candidate pixel must be ground-like, not a kerb face or a wall
         n_here = surface_normals(depth, camera, np.array([row]), np.array([col]))[0]
-        if not n_here[2] >= min_up:  # NaN-safe
+        if not n_here[2] >= tests.min_up:  # NaN-safe
             rejections["candidate surface not horizontal"] += 1
             continue
         # orientation
@@ -536,75 +714,38 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
                     continue
             yaw = base + (0.0 if rng.random() < 0.5 else math.pi) + float(rng.uniform(-jitter, jitter))
         # 2. cheap image-space tests on a provisional pose (the pixel's own normal)
-        why = image_check(pose_matrix(point, n_here, yaw))
+        why = tests.image(pose_matrix(point, n_here, yaw))
         if why:
-            rejections[why] += 1
+            rejections[why.reason] += 1
             continue
-        # 3. the local ground: robust plane through the allowed points around the candidate,
-        #    found through the pixel grid (the square around the point, projected)
-        square = point + np.array([[sx * reach, sy * reach, dz] for sx in (-1, 1) for sy in (-1, 1)
-                                   for dz in (-0.3, 0.3)])
-        rect = frame.box_rect(square)
-        near = np.empty((0, 3))
-        if rect is not None:
-            pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True)
-            sel = np.flatnonzero(np.isin(labs, allowed_ids) & (np.abs(pts[:, 0] - point[0]) <= reach)
-                                 & (np.abs(pts[:, 1] - point[1]) <= reach))
-            # only ground-like surfaces: kerb faces and walls of an allowed label do not count
-            sel = sel[surface_normals(depth, camera, rr[sel], cc[sel])[:, 2] >= min_up]
-            near = pts[sel]
-        fit = fit_ground(near, point) if len(near) >= rules.min_ground_points else None
-        if fit is None:
-            rejections["too few ground points"] += 1
-            continue
-        (a, b, c), rms, inliers = fit
-        normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)
-        ground_z = a * point[0] + b * point[1] + c
-        why = None
-        if inliers < rules.min_ground_inliers * len(near):
-            why = "ground not planar (step or kerb)"
-        elif rms > rules.max_ground_rms:
-            why = "ground not flat (rms too high)"
-        elif math.degrees(math.acos(normal[2])) > rules.max_ground_tilt_deg:
-            why = "ground too steep"
-        elif abs(point[2] - ground_z) > rules.max_ground_rms + 0.02:
-            why = "candidate point is off the fitted ground (kerb face, noise)"
+        # 3. the local ground: robust plane through the allowed points around the candidate
+        ground, why = tests.ground(point)
+        if why is None and abs(point[2] - ground.height(point[0], point[1])) > rules.max_ground_rms + 0.02:
+            why = Rejection("candidate point is off the fitted ground (kerb face, noise)")
         if why:
-            rejections[why] += 1
+            rejections[why.reason] += 1
             continue
-        position = np.array([point[0], point[1], ground_z])
-        m = pose_matrix(position, normal, yaw)
+        position = np.array([point[0], point[1], ground.height(point[0], point[1])])
+        m = pose_matrix(position, ground.normal, yaw)
         # 4. the image tests again on the final pose, then the visibility rules
-        why = image_check(m)
+        why = tests.image(m)
         if why:
-            rejections[why] += 1
+            rejections[why.reason] += 1
             continue
-        in_image, hidden, area = _visibility(frame, m, extents, others)
-        if hidden > rules.max_occluded_fraction:
-            rejections["too much hidden by the scene"] += 1
+        why, in_image, hidden = tests.visibility(m, others)
+        if why:
+            rejections[why.reason] += 1
             continue
-        if area * in_image * (1.0 - hidden) < rules.min_visible_pixels:
-            rejections["too few visible pixels"] += 1
-            continue
-        if others and _hides_others(frame, m, extents, others, rules):
-            rejections["would hide an object placed before"] += 1
-            continue
-        # 5. other objects of this frame
-        mine = footprint_corners(m, extents, rules.object_gap / 2)
-        if any(footprints_overlap(mine, o) for o in other_prints):
-            rejections["overlaps another inserted object"] += 1
-            continue
-        # 6. scene points inside the box: the pixel grid as index, then the strict test
-        rect = frame.box_rect(box_corners(m, extents, rules.margin))
-        pts, _ = frame.rect_points(*rect) if rect else (np.empty((0, 3)), None)
-        if strict_inside(pts, m, extents, rules.clearance, rules.margin).sum() >= rules.min_collision_points:
-            rejections["intersects the scene"] += 1
+        # 5. other objects of this frame; 6. scene points inside the box
+        why = tests.overlap(m, other_prints) or tests.scene(m)
+        if why:
+            rejections[why.reason] += 1
             continue
         placement = Placement(
             class_name=class_name, extents=tuple(float(e) for e in extents),
             vehicle_from_object=tuple(tuple(float(v) for v in r) for r in m),
             yaw=float(math.atan2(m[1, 0], m[0, 0])), road_yaw=road_yaw,
-            ground_normal=tuple(float(v) for v in normal), ground_rms=rms,
+            ground_normal=tuple(float(v) for v in ground.normal), ground_rms=ground.rms,
             distance=float(math.hypot(position[0] - camera.x, position[1] - camera.y)),
             pixel=(row, col), occluded_estimate=hidden, truncated=in_image < 1.0)
         return PlacementResult(placement, attempt, dict(rejections))

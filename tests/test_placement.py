@@ -116,3 +116,36 @@ def test_collision_with_a_parked_car_is_found_by_both_searches(frame):
     assert by_prefilter == by_grid
     if (arrays["instance_ids"] == car.instance_id).sum() > 20:  # the camera sees the parked car
         assert by_grid > 10
+
+
+def test_check_pose_accepts_what_placement_accepted_and_names_the_rule_a_moved_pose_breaks(frame):
+    """check_pose (the preview's verdict on a pose moved by hand) runs the batch's own rules:
+    every pose place_object accepted passes; lifted, pushed onto the other object, or into a
+    parked car of the scene, it fails naming the rule."""
+    from synthcompose.placement import RULE_OF, check_pose, pose_matrix
+
+    scene, arrays, fr = frame
+    rules = PlacementRules()
+    rng = np.random.default_rng(5)
+    placed = []
+    for _ in range(2):
+        res = place_object(fr, "car", SIZES["car"], rng, rules, others=placed)
+        assert res.placement is not None, res.rejections
+        assert check_pose(fr, "car", SIZES["car"], res.placement.matrix, rules, others=placed) is None
+        placed.append(res.placement)
+    first = placed[0]
+    lifted = first.matrix
+    lifted[2, 3] += 0.5
+    why = check_pose(fr, "car", SIZES["car"], lifted, rules)
+    assert why is not None and why.rule in ("ground support", "ground plane"), why
+    onto = first.matrix
+    onto[:3, 3] += onto[:3, 0]  # 1 m ahead of the first car, on its ground plane
+    why = check_pose(fr, "car", SIZES["car"], onto, rules, others=[first])
+    assert why is not None and why.reason == "overlaps another inserted object" and why.rule == "collision", why
+    car = next(b for b in scene.boxes if b.label == "car")
+    centre = scene.points_to_vehicle(((np.array(car.lo) + np.array(car.hi)) / 2)[None])[0]
+    m = pose_matrix(np.array([centre[0], centre[1], float(scene.ground_height(centre[0], centre[1]))]),
+                    np.array([0, 0, 1.0]), scene.street_heading)
+    why = check_pose(fr, "car", SIZES["car"], m, rules)
+    assert why is not None and why.rule in set(RULE_OF.values()) - {"min visible pixels"}, why
+    assert str(why).startswith(f"{why.rule}: {why.reason}")
