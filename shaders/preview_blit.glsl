@@ -1,5 +1,6 @@
 #version 330 core
 // Preview window: one RGB image over the whole viewport (texture row 0 = image top).
+// With OVERLAY defined: an RGBA picture (straight alpha) to blend over what is drawn.
 #if defined VERTEX_SHADER
 out vec2 v_uv;
 void main() {
@@ -11,5 +12,9 @@ void main() {
 in vec2 v_uv;
 uniform sampler2D u_image;
 out vec4 out_color;
+#if defined OVERLAY
+void main() { out_color = texture(u_image, v_uv); }
+#else
 void main() { out_color = vec4(texture(u_image, v_uv).rgb, 1.0); }
+#endif
 #endif

@@ -4,11 +4,11 @@ The window's OpenGL context is the only one: it is wrapped in a :class:`~synthco
 and the batch's own Pipeline, Renderer and Composer render into it (:mod:`synthcompose.preview_state`
 does the work; this module only shows it and maps keys and the mouse).
 
-Keys: 1-9 pass (composed, Irpv, Ir, alpha, ID, object depth, scene depth, occlusion mask, semantic
-overlay); N / P next / previous image set; R re-roll (next seed offset); arrows move the selected
-object on the ground (Shift: 4x); Q / E turn it; Tab select the next object; S save the placement;
-V 3D view; C colour the cloud by RGB / label; X export PLY; H help; Esc quit. 3D view: left drag
-orbits, right (or middle) drag pans, the wheel zooms.
+The keys are :data:`KEYS`. Every shown pose is checked against the batch's placement rules; the
+verdict (OK, or the object, the rule it breaks and why) is on the overlay drawn over the view
+(pass, image set, placement, verdict, last message; in the 3D view the legend of colours), and
+S refuses to save a pose that fails (Shift+S saves it anyway). 3D view: left drag orbits, right
+(or middle) drag pans, the wheel zooms.
 """
 from __future__ import annotations
 
@@ -20,10 +20,28 @@ import numpy as np
 from .errors import SynthComposeError
 from .gl import GLContext
 from .manifest import Manifest
-from .preview_state import (ACCEPTED_COLOUR, BOX_EDGES, PASS_TITLES, PASSES, STEP_M, STEP_YAW_DEG, PreviewSession,
-                            box_mesh, plane_quad)
+from .preview_state import (ACCEPTED_COLOUR, BOX_COLOUR, BOX_EDGES, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PASS_TITLES,
+                            PASSES, PLANE_COLOUR, SELECTED_BOX_COLOUR, STEP_M, STEP_YAW_DEG, TEXT_COLOUR, Overlay,
+                            PlacementRefused, PreviewSession, box_mesh, plane_quad, view_legend)
 
-HELP = __doc__.split("\n\n", 2)[2].strip()
+#: (key, what it does): the console and on-screen help
+KEYS = (
+    ("1-9", "pass: composed, Irpv, Ir, alpha, object ID, object depth, scene depth, occlusion mask, semantic"),
+    ("N / P", "next / previous image set"),
+    ("R", "re-roll: a new random placement"),
+    ("arrows", f"move the selected object {STEP_M * 100:.0f} cm on the ground (Shift: x4)"),
+    ("Q / E", f"turn it {STEP_YAW_DEG:.0f} deg (Shift: x4)"),
+    ("Tab", "select the next object"),
+    ("S", "save the placement (refused while a placement rule fails)"),
+    ("Shift+S", "save anyway, rules or not"),
+    ("V", "3D view: left drag orbits, right drag pans, wheel zooms"),
+    ("C", "colour the cloud by photo / label"),
+    ("X", "export PLY"),
+    ("O", "overlay on / off"),
+    ("H", "this help on / off"),
+    ("Esc", "quit"),
+)
+HELP = "\n".join(f"{k:<8} {what}" for k, what in KEYS)
 MAX_WINDOW = (1600, 900)
 
 
@@ -111,6 +129,13 @@ class PreviewWindow:
         self.session = PreviewSession(manifest, frame, gl=self.gl)
         self.blit = self.gl.program("preview_blit")
         self.blit_vao = self.gl.own(self.ctx.vertex_array(self.blit, []))
+        self.overlay_blit = self.gl.program("preview_blit", OVERLAY=1)
+        self.overlay_vao = self.gl.own(self.ctx.vertex_array(self.overlay_blit, []))
+        self.overlay_tex = None
+        self.overlay_pixels: np.ndarray | None = None  # (H, W, 4) RGBA last drawn over the view
+        self._overlay_key = None
+        self.show_overlay, self.show_help = True, False
+        self.message = ""  # the last action's result (saved, refused...), on the overlay
         self.points = self.gl.program("preview_points")
         self.image_tex = None
         self.pass_index = 0
@@ -137,9 +162,15 @@ class PreviewWindow:
         if not self.quiet:
             print(text, flush=True)
 
+    def _note(self, text: str) -> None:
+        """Say ``text`` on the console and on the overlay."""
+        self.message = text
+        self._say(text)
+
     def reload(self, view=None) -> None:
         """After the session changed: new image, new 3D geometry, title, legend."""
         v = self.session.view
+        self.message = ""
         H, W = v.rgb.shape[:2]
         if self._sized_for != (W, H):
             if self._fixed_size:
@@ -196,7 +227,7 @@ class PreviewWindow:
         for i, o in enumerate(v.objects):
             m = o.placement.matrix
             corners, _ = box_mesh(m, o.extents)
-            c = (255, 255, 0) if i == self.session.selected else (255, 60, 60)
+            c = SELECTED_BOX_COLOUR if i == self.session.selected else BOX_COLOUR
             for a, b in BOX_EDGES:
                 lines += [corners[a], corners[b]]
                 lcol += [c, c]
@@ -204,7 +235,7 @@ class PreviewWindow:
             for t in np.linspace(0.0, 1.0, 5):  # the fitted ground plane as a grid
                 for a, b, cc, d in ((0, 1, 3, 2), (0, 3, 1, 2)):
                     lines += [q[a] + t * (q[cc] - q[a]), q[b] + t * (q[d] - q[b])]
-                    lcol += [(0, 220, 0)] * 2
+                    lcol += [PLANE_COLOUR] * 2
         add(np.array(lines).reshape(-1, 3), np.array(lcol).reshape(-1, 3), moderngl.LINES)
         colours = v.reason_colour()
         if v.trace:
@@ -213,9 +244,27 @@ class PreviewWindow:
             add(np.array([o.placement.position for o in v.objects]), np.array([ACCEPTED_COLOUR] * len(v.objects)),
                 moderngl.POINTS, 10.0)
 
+    @property
+    def what(self) -> str:
+        """What is shown: the pass, or the 3D view."""
+        return f"3D view ({self.colour_by})" if self.mode_3d else f"{self.pass_index + 1}: {PASS_TITLES[self.pass_name]}"
+
+    def overlay(self) -> Overlay:
+        """The text over the view: what is shown, the image set, the placement and its verdict,
+        the last message; the 3D view's colours; the keys when help is on."""
+        s, v = self.session, self.session.view
+        verdict = v.verdict
+        colour = NOTE_COLOUR if not v.objects else OK_COLOUR if verdict.ok else FAIL_COLOUR
+        lines = [(f"{self.what} | {v.ident.key} ({s.index + 1}/{len(s.ids)}) | H: help", TEXT_COLOUR),
+                 (s.objects_line(), TEXT_COLOUR), (str(verdict), colour)]
+        if self.message:
+            lines.append((self.message, NOTE_COLOUR))
+        return Overlay(tuple(lines), view_legend(v) if self.mode_3d else (),
+                       tuple(f"{k}\t{what}" for k, what in KEYS) if self.show_help else ())
+
     def _update_title(self) -> None:
         v = self.session.view
-        what = f"3D view ({self.colour_by})" if self.mode_3d else f"{self.pass_index + 1}: {PASS_TITLES[self.pass_name]}"
+        what = self.what
         top = sorted(v.reasons.items(), key=lambda kv: -kv[1])[:3]
         rej = "; ".join(f"{w} x{n}" for w, n in top) or "none"
         self.title = f"synthcompose preview - {what} - {self.session.status_line()} - rejected: {rej}"
@@ -252,8 +301,16 @@ class PreviewWindow:
             self._build_geometry()
             self._update_title()
         elif key == glfw.KEY_S:
-            path = s.save()
-            self._say(f"saved placement: {path}" if path else "nothing placed: nothing to save")
+            force = bool(mods & glfw.MOD_SHIFT)
+            try:
+                path = s.save(force=force)
+            except PlacementRefused as exc:
+                self._say(str(exc))  # the console gets the whole verdict, the overlay has it already
+                self.message = exc.short
+            else:
+                anyway = " anyway, breaking the rules" if path and not s.view.verdict.ok else ""
+                self._note(f"saved placement{anyway}: {path}" if path else "nothing placed: nothing to save")
+            self._update_title()
         elif key == glfw.KEY_V:
             self.mode_3d = not self.mode_3d
             self._update_title()
@@ -266,7 +323,11 @@ class PreviewWindow:
             info = s.export_ply(path, self.colour_by)
             self._say(f"PLY written: {path} ({info['points']} points, {info['objects']} boxes)")
         elif key == glfw.KEY_H:
-            self._say(HELP)
+            self.show_help = not self.show_help
+            if self.show_help:
+                self._say(HELP)
+        elif key == glfw.KEY_O:
+            self.show_overlay = not self.show_overlay
         elif key == glfw.KEY_ESCAPE:
             glfw.set_window_should_close(self.window, True)
         self.dirty = True
@@ -317,7 +378,31 @@ class PreviewWindow:
             for vao, mode, size, _ in self._geometry:
                 self.points["u_point_size"].value = size
                 vao.render(mode)
+        if self.show_overlay:
+            self._draw_overlay(fw, fh)
         self.dirty = False
+
+    def _draw_overlay(self, fw: int, fh: int) -> None:
+        """Blend the overlay's RGBA picture (made again only when its text or size changed) over the view."""
+        import moderngl
+
+        ov = self.overlay()
+        if self._overlay_key != (fw, fh, ov):
+            rgba = self.overlay_pixels = ov.render(fw, fh)
+            if self.overlay_tex is None or self.overlay_tex.size != (fw, fh):
+                if self.overlay_tex is not None:
+                    self.gl.free(self.overlay_tex)
+                self.overlay_tex = self.gl.texture((fw, fh), 4, rgba)
+            else:
+                self.overlay_tex.write(rgba.tobytes())
+            self._overlay_key = (fw, fh, ov)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.overlay_tex.use(0)
+        self.overlay_blit["u_image"].value = 0
+        self.overlay_vao.render(moderngl.TRIANGLES, vertices=3)
+        self.ctx.disable(moderngl.BLEND)
 
     def read_framebuffer(self) -> np.ndarray:
         """(H, W, 3) uint8 RGB of the window's back buffer as just drawn (top row first)."""

@@ -3,8 +3,11 @@
 A :class:`PreviewSession` runs the batch's own :class:`~synthcompose.pipeline.Pipeline` on
 one image set (through the pipeline's preview hooks: it sees the intermediate results and
 stops before anything is written), keeps them as a :class:`View`, and turns them into the
-images of each pass, a PLY file, and saved placements. :mod:`synthcompose.preview` puts it
-in a window; this module never imports a windowing toolkit.
+images of each pass, a PLY file, and saved placements. Every shown pose is checked against
+the batch's placement rules (:func:`~synthcompose.placement.check_pose`): a :class:`Verdict`,
+and :meth:`PreviewSession.save` refuses a pose that breaks one unless forced. :class:`Overlay`
+is the text the window draws over the view, as an RGBA picture. :mod:`synthcompose.preview`
+puts it all in a window; this module never imports a windowing toolkit.
 """
 from __future__ import annotations
 
@@ -21,7 +24,7 @@ from .geometry import Frame
 from .colour import linear_to_srgb
 from .labels import COLOR_LUT
 from .manifest import Manifest
-from .placement import ALLOWED_SURFACES, Placement
+from .placement import ALLOWED_SURFACES, Placement, Rejection, check_pose
 from .placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path,
                          write_saved)
 
@@ -39,12 +42,53 @@ REASON_COLOURS = np.array([[255, 0, 0], [255, 128, 0], [255, 0, 255], [0, 255, 2
                            [0, 128, 255], [255, 128, 128], [128, 255, 0], [255, 0, 128], [128, 128, 255],
                            [200, 200, 200]], np.uint8)
 ACCEPTED_COLOUR = (0, 255, 0)
+SELECTED_BOX_COLOUR, BOX_COLOUR, PLANE_COLOUR = (255, 255, 0), (255, 60, 60), (0, 220, 0)  # 3D view
 STEP_M = 0.25  # arrow keys move the object this far
 STEP_YAW_DEG = 5.0  # Q/E turn it this much
+OK_COLOUR, FAIL_COLOUR, NOTE_COLOUR, TEXT_COLOUR = (90, 230, 90), (255, 80, 80), (255, 210, 90), (235, 235, 235)
 
 
 class _Stop(Exception):
     """Raised by the capture hook: the preview has what it needs, nothing is written."""
+
+
+class PlacementRefused(SynthComposeError):
+    """save() of a pose that breaks the placement rules, without ``force``."""
+
+    def __init__(self, verdict: "Verdict") -> None:
+        self.verdict = verdict
+        super().__init__(f"not saved: {verdict}; move it where the rules hold, or save it anyway (Shift+S)")
+
+    @property
+    def short(self) -> str:
+        i, name, why = self.verdict.failures[0]
+        return f"not saved: {name} #{i + 1} breaks the {why.rule} rule; Shift+S saves it anyway"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The batch's placement rules on the shown poses: per object (name, the rule it breaks or
+    None), each checked against the objects before it, as the batch places them."""
+
+    checks: tuple[tuple[str, Rejection | None], ...] = ()
+
+    @property
+    def failures(self) -> list[tuple[int, str, Rejection]]:
+        return [(i, name, why) for i, (name, why) in enumerate(self.checks) if why is not None]
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    def __str__(self) -> str:
+        if not self.checks:
+            return "no object placed"
+        bad = self.failures
+        if not bad:
+            return "placement OK"
+        i, name, why = bad[0]
+        more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+        return f"FAILS {name} #{i + 1} - {why}{more}"
 
 
 @dataclass
@@ -72,6 +116,7 @@ class View:
     composed_rgb: np.ndarray | None = None
     composed_labels: np.ndarray | None = None
     visible: np.ndarray | None = None
+    verdict: Verdict = Verdict()
 
     @property
     def reasons(self) -> dict[str, int]:
@@ -175,9 +220,17 @@ class PreviewSession:
                          got.get("pass_arrays", {}), got.get("roi"),
                          None if composed is None else composed.rgb,
                          None if composed is None else composed.label_ids,
-                         None if composed is None else composed.visible)
+                         None if composed is None else composed.visible,
+                         self._verdict(got["frame"], objects))
         self.selected = min(self.selected, max(len(objects) - 1, 0))
         return self.view
+
+    def _verdict(self, frame: Frame, objects: list[PlacedObject]) -> Verdict:
+        """Each object against the rules, the objects before it standing (the batch's order)."""
+        rules = self.base.rules
+        return Verdict(tuple((o.name, check_pose(frame, o.class_name, o.extents, o.placement.matrix, rules, o.allowed,
+                                                 [p.placement for p in objects[:i]]))
+                             for i, o in enumerate(objects)))
 
     def step_set(self, step: int) -> View:
         self.index = (self.index + step) % len(self.ids)
@@ -213,11 +266,15 @@ class PreviewSession:
             self.selected = (self.selected + 1) % len(self.view.objects)
         return self.selected
 
-    def save(self) -> Path | None:
-        """Write the shown poses as the image set's placement file; a later batch uses them."""
+    def save(self, force: bool = False) -> Path | None:
+        """Write the shown poses as the image set's placement file; a later batch uses them.
+        A pose that breaks a placement rule raises :class:`PlacementRefused` unless ``force``
+        (the window's Shift+S: save anyway)."""
         v = self.view
         if v is None or not v.objects:
             return None
+        if not force and not v.verdict.ok:
+            raise PlacementRefused(v.verdict)
         return write_saved(self.base.output, v.ident, [(o.name, o.placement.matrix) for o in v.objects])
 
     @property
@@ -266,11 +323,16 @@ class PreviewSession:
             out[rendered & seen] = (40, 220, 40)
         return out
 
-    def status_line(self) -> str:
+    def objects_line(self) -> str:
+        """Where the placement comes from, and each object (* selected) with distance and yaw."""
         v = self.view
         objs = ", ".join(f"{o.name}{'*' if i == self.selected else ''} {o.placement.distance:.1f}m "
                          f"yaw {math.degrees(o.placement.yaw):.0f}" for i, o in enumerate(v.objects)) or "no object placed"
-        return f"{v.ident.key} [{v.source}, seed+{self.seed_offset}] {objs}"
+        return f"[{v.source}, seed+{self.seed_offset}] {objs}"
+
+    def status_line(self) -> str:
+        v = self.view
+        return f"{v.ident.key} {self.objects_line()} - {v.verdict}"
 
     def legend(self) -> list[str]:
         v = self.view
@@ -293,6 +355,104 @@ class PreviewSession:
 
     def export_ply(self, path: str | Path, colour: str = "rgb") -> dict[str, int]:
         return export_ply(path, self.view, self.cloud_colours(colour))
+
+
+# --------------------------------------------------------------------------- overlay
+Rgb = tuple[int, int, int]
+_FONT = cv2.FONT_HERSHEY_SIMPLEX
+_PANEL = (18, 18, 22, 175)  # RGBA of the panels behind the text
+
+
+def _wrap(text: str, scale: float, width: int) -> list[str]:
+    """``text`` cut at spaces (or anywhere, for one long word) into lines at most ``width`` px wide."""
+    def fits(t: str) -> bool:
+        return cv2.getTextSize(t, _FONT, scale, 1)[0][0] <= width
+
+    lines, line = [], ""
+    for word in text.split(" "):
+        trial = f"{line} {word}" if line else word
+        if fits(trial):
+            line = trial
+            continue
+        if line:
+            lines.append(line)
+        while not fits(word) and len(word) > 1:
+            cut = max(k for k in range(1, len(word) + 1) if fits(word[:k]) or k == 1)
+            lines.append(word[:cut])
+            word = word[cut:]
+        line = word
+    return lines + [line] if line else lines
+
+
+def _panel(out: np.ndarray, x: int, y: int, rows: list[tuple[Rgb | None, str, Rgb]], scale: float,
+           max_width: int, max_height: int, from_bottom: bool = False) -> tuple[int, int, int, int]:
+    """Draw rows (swatch colour or None, text, text colour) on a dark panel with its top left
+    corner at (x, y) (bottom left when ``from_bottom``), text wrapped to ``max_width`` px; a tab
+    in a text starts a second column, aligned over the rows. Returns the panel's (x0, y0, x1, y1);
+    rows beyond ``max_height`` px are left out."""
+    H, W = out.shape[:2]
+    (_, th), base = cv2.getTextSize("Ag", _FONT, scale, 1)
+    line_h, pad = th + base + 3, 4
+    sw = th + 4 if any(c is not None for c, _, _ in rows) else 0  # swatch column
+    split = [(c, *(t.split("\t", 1) if "\t" in t else ("", t)), colour) for c, t, colour in rows]
+    col = max((cv2.getTextSize(k, _FONT, scale, 1)[0][0] + 2 * th for _, k, _, _ in split if k), default=0)
+    lines: list[tuple[Rgb | None, str, str, Rgb]] = []
+    for swatch, key, text, colour in split:
+        for k, part in enumerate(_wrap(text, scale, max(max_width - sw - col - 2 * pad, 10))):
+            lines.append((swatch, key, part, colour) if k == 0 else (None, "", part, colour))
+    lines = lines[:max((min(max_height, H) - 2 * pad + 3) // line_h, 0)]
+    if not lines:
+        return x, y, x, y
+    width = sw + col + max(cv2.getTextSize(t, _FONT, scale, 1)[0][0] for _, _, t, _ in lines) + 2 * pad
+    height = len(lines) * line_h + 2 * pad - 3
+    y0 = y - height if from_bottom else y
+    x1, y1 = min(x + width, W), min(y0 + height, H)
+    out[max(y0, 0):y1, max(x, 0):x1] = _PANEL
+    for k, (swatch, key, text, colour) in enumerate(lines):
+        top = y0 + pad + k * line_h
+        if swatch is not None:
+            cv2.rectangle(out, (x + pad, top + 1), (x + pad + th, top + th), (*swatch, 255), -1)
+        for dx, t in ((0, key), (col, text)):
+            if t:
+                cv2.putText(out, t, (x + pad + sw + dx, top + th), _FONT, scale, (*colour, 255), 1, cv2.LINE_AA)
+    return x, y0, x1, y1
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """The text the window draws over its view: ``lines`` at the top left ((text, RGB)), the
+    3D view's ``legend`` at the bottom left ((swatch RGB, text)), ``help`` below the first line
+    (the other lines and the legend make room for it)."""
+
+    lines: tuple[tuple[str, Rgb], ...]
+    legend: tuple[tuple[Rgb, str], ...] = ()
+    help: tuple[str, ...] = ()
+
+    def render(self, width: int, height: int) -> np.ndarray:
+        """(height, width, 4) uint8 RGBA picture (straight alpha, top row first): the text on
+        translucent dark panels, transparent elsewhere."""
+        out = np.zeros((height, width, 4), np.uint8)
+        scale = float(np.clip(0.55 * min(width / 1280, height / 720), 0.4, 0.65))
+        margin = 6
+        room = width - 2 * margin
+        lines = self.lines[:1] if self.help else self.lines  # help: only the first line stays
+        _, _, _, bottom = _panel(out, margin, margin, [(None, t, c) for t, c in lines], scale, room,
+                                 height - 2 * margin)
+        below = height - bottom - 2 * margin  # room left under the lines
+        if self.legend and not self.help:  # help takes the legend's place
+            _panel(out, margin, height - margin, [(c, t, TEXT_COLOUR) for c, t in self.legend], scale,
+                   min(room, max(width // 2, 320)), below, from_bottom=True)
+        if self.help:
+            _panel(out, margin, bottom + margin, [(None, t, TEXT_COLOUR) for t in self.help], scale, room, below)
+        return out
+
+
+def view_legend(view: View) -> tuple[tuple[Rgb, str], ...]:
+    """The 3D view's colours: rejected candidates by reason (commonest first), then the rest."""
+    cols = view.reason_colour()
+    rows = [(cols[why], f"x{n} {why}") for why, n in sorted(view.reasons.items(), key=lambda kv: -kv[1])]
+    return tuple(rows) + ((ACCEPTED_COLOUR, "accepted position"), (SELECTED_BOX_COLOUR, "selected object's box"),
+                          (BOX_COLOUR, "other objects' boxes"), (PLANE_COLOUR, "fitted ground plane"))
 
 
 def box_mesh(m: np.ndarray, extents) -> tuple[np.ndarray, np.ndarray]:

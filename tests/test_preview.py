@@ -1,4 +1,5 @@
-"""`synthcompose preview`: the window (under Xvfb), the PLY export and saved placements."""
+"""`synthcompose preview`: the window (under Xvfb: keys, mouse, overlay), the placement rules'
+verdict on moved poses, the PLY export and saved placements."""
 from __future__ import annotations
 
 import json
@@ -15,8 +16,9 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.dataset import read_image_set
 from synthcompose.manifest import load_manifest
+from synthcompose.placement import RULE_OF
 from synthcompose.placements import placement_path, read_saved
-from synthcompose.preview_state import PASSES, PreviewSession
+from synthcompose.preview_state import PASSES, Overlay, PlacementRefused, PreviewSession
 from synthcompose.sample import make_sample
 
 from .test_batch import write_manifest
@@ -132,6 +134,63 @@ def test_bad_saved_placement_fails_that_set_naming_the_file(dataset, manifest):
     assert len(failed) == 1 and str(path) in failed[0]["reason"]
 
 
+def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_one(dataset, manifest):
+    root, ids = dataset
+    m = load_manifest(manifest)
+    s = PreviewSession(m, ids[0].name)
+    try:
+        s.load()
+        assert s.view.verdict.ok and str(s.view.verdict) == "placement OK"  # the batch accepted it
+        start = s.view.objects[0].placement.matrix
+        s.move(dy=4.0)  # 4 m to the left: off the road, onto the sidewalk
+        verdict = s.view.verdict
+        assert not verdict.ok
+        i, name, why = verdict.failures[0]
+        assert (i, name) == (0, s.view.objects[0].name) and why.rule in RULE_OF.values()
+        assert str(verdict).startswith(f"FAILS {name} #1 - {why.rule}: {why.reason}")
+        assert why.rule in s.status_line()
+        with pytest.raises(PlacementRefused, match=f"not saved: .*{why.rule}.*Shift\\+S"):
+            s.save()
+        assert not s.placement_file.exists()
+        s.move(dy=-4.0)  # back where it was: the rules hold again
+        assert s.view.verdict.ok, str(s.view.verdict)
+        assert np.allclose(s.view.objects[0].placement.matrix[:2, 3], start[:2, 3], atol=1e-6)
+        path = s.save()
+        assert path.is_file()
+        saved = read_saved(m.output, ids[0])
+        assert np.allclose(saved.objects[0].matrix, s.view.objects[0].placement.matrix, atol=1e-5)
+        # into a collision: the first object 1 m ahead of the second, where they stand on one surface
+        same = [k for k, o in enumerate(s.view.objects) if o.allowed == s.view.objects[0].allowed]
+        if len(same) > 1:
+            a, b = (s.view.objects[k].placement.matrix for k in same[:2])
+            target = b[:3, 3] + b[:3, 0]
+            s.selected = same[0]
+            s.move(dx=target[0] - a[0, 3], dy=target[1] - a[1, 3])
+            assert any(w.rule == "collision" for _, _, w in s.view.verdict.failures), str(s.view.verdict)
+            with pytest.raises(PlacementRefused):
+                s.save()
+            assert s.save(force=True) == path  # the explicit override writes it anyway
+            assert not np.allclose(read_saved(m.output, ids[0]).objects[0].matrix, saved.objects[0].matrix)
+    finally:
+        s.close()
+
+
+def test_overlay_picture_has_the_text_on_panels_and_is_clear_elsewhere():
+    ov = Overlay((("1: composed | train/a/a_000000_000001 (1/1)", (255, 255, 255)), ("placement OK", (0, 255, 0))),
+                 legend=(((255, 0, 0), "x3 intersects the scene"),))
+    img = ov.render(640, 320)
+    assert img.shape == (320, 640, 4) and img.dtype == np.uint8
+    alpha = img[..., 3]
+    assert 0.02 < (alpha > 0).mean() < 0.3  # a top panel and a legend panel, the rest clear
+    assert (alpha[:40] > 0).any() and (alpha[-40:] > 0).any() and not (alpha[120:200] > 0).any()
+    red = (img[..., 0] == 255) & (img[..., 1] == 0) & (img[..., 3] == 255)
+    assert red[-40:].sum() > 20  # the legend's swatch
+    helped = Overlay(ov.lines, help=("1-9\tpass", "Esc\tquit")).render(640, 320)
+    assert (helped[..., 3] > 0).sum() > (Overlay(ov.lines[:1]).render(640, 320)[..., 3] > 0).sum()
+    long = Overlay((("word " * 200, (255, 255, 255)),)).render(320, 160)  # wrapped, never past the picture
+    assert (long[..., 3] > 0).any() and long.shape == (160, 320, 4)
+
+
 # ------------------------------------------------------------------------- the window
 _WINDOW_SCRIPT = r"""
 import json, os, sys, time
@@ -139,10 +198,11 @@ import numpy as np
 import glfw
 from PIL import ImageGrab
 from synthcompose.manifest import load_manifest
-from synthcompose.preview import PreviewWindow
+from synthcompose.preview import PreviewWindow, _look_at
 
 manifest, frame, out = sys.argv[1:4]
 w = PreviewWindow(load_manifest(manifest), frame, quiet=True)
+got = {}
 
 def shot():
     for _ in range(3):
@@ -154,19 +214,70 @@ def shot():
     fw, fh = glfw.get_framebuffer_size(w.window)
     return np.asarray(ImageGrab.grab(bbox=(x, y, x + fw, y + fh), xdisplay=os.environ['DISPLAY']))[..., :3]
 
-before = shot()
-title_before = w.title
-w.on_key(w.window, glfw.KEY_2, 0, glfw.PRESS, 0)  # a key press: show the Irpv pass
-w.on_key(w.window, glfw.KEY_2, 0, glfw.RELEASE, 0)
-after = shot()
-title_after = w.title
-w.draw()
-framebuffer = w.read_framebuffer()
-w.on_key(w.window, glfw.KEY_V, 0, glfw.PRESS, 0)  # the 3D view
-w.draw()
-view3d = w.read_framebuffer()
-np.savez(out, before=before, after=after, framebuffer=framebuffer, view3d=view3d,
-         pass_name=w.pass_name, title_before=title_before, title=title_after, title_3d=w.title)
+def key(k, mods=0):
+    w.on_key(w.window, k, 0, glfw.PRESS, mods)
+    w.on_key(w.window, k, 0, glfw.RELEASE, mods)
+
+def read():
+    w.draw()
+    return w.read_framebuffer()
+
+def orbit():
+    o = w.orbit
+    return np.array([o.yaw, o.pitch, o.distance, *o.target])
+
+def drag(button, dx, dy):
+    x0, y0 = glfw.get_cursor_pos(w.window)
+    w.on_mouse_button(w.window, button, glfw.PRESS, 0)
+    w.on_cursor(w.window, x0 + dx / 2, y0 + dy / 2)
+    w.on_cursor(w.window, x0 + dx, y0 + dy)
+    w.on_mouse_button(w.window, button, glfw.RELEASE, 0)
+
+got["before"] = shot()
+got["title_before"], got["mask_before"] = w.title, w.overlay_pixels[..., 3] > 0
+key(glfw.KEY_2)  # a key press: show the Irpv pass
+got["after"] = shot()
+got["title"], got["pass_name"], got["mask"] = w.title, w.pass_name, w.overlay_pixels[..., 3] > 0
+got["overlay_lines"] = [t for t, _ in w.overlay().lines]
+got["framebuffer"] = read()
+key(glfw.KEY_O)  # overlay off
+got["after_no_overlay"], got["framebuffer_no_overlay"] = shot(), read()
+key(glfw.KEY_O)
+key(glfw.KEY_H)  # help on screen
+read()
+got["mask_help"] = w.overlay_pixels[..., 3] > 0
+key(glfw.KEY_H)
+# the 3D view and the mouse: orbit (left drag), pan (right drag), zoom (wheel)
+key(glfw.KEY_V)
+got["view3d"], got["orbit0"], got["mask_3d"] = read(), orbit(), w.overlay_pixels[..., 3] > 0
+got["legend"] = [t for _, t in w.overlay().legend]
+drag(glfw.MOUSE_BUTTON_LEFT, 60, 25)
+got["view_orbit"], got["orbit1"] = read(), orbit()
+drag(glfw.MOUSE_BUTTON_RIGHT, 40, 30)
+got["view_pan"], got["orbit2"] = read(), orbit()
+camera = _look_at(w.orbit.eye, w.orbit.target)  # rows 0, 1: the camera's right and up (the pan keeps them)
+got["pan_right"], got["pan_up"] = camera[0, :3], camera[1, :3]
+w.on_scroll(w.window, 0.0, 2.0)  # wheel up twice
+got["view_zoom"], got["orbit3"] = read(), orbit()
+key(glfw.KEY_V)
+# save with the keys: refused off the road, Shift+S saves anyway, back on the road S saves
+path = w.session.placement_file
+for _ in range(4):
+    key(glfw.KEY_LEFT, glfw.MOD_SHIFT)  # 1 m to the left each
+got["verdict_moved"], got["title_moved"] = str(w.session.view.verdict), w.title
+key(glfw.KEY_S)
+got["refused_message"], got["refused_exists"] = w.message, path.exists()
+got["refused_overlay"] = [t for t, _ in w.overlay().lines]
+key(glfw.KEY_S, glfw.MOD_SHIFT)
+got["anyway_message"], got["anyway_exists"] = w.message, path.exists()
+for _ in range(4):
+    key(glfw.KEY_RIGHT, glfw.MOD_SHIFT)
+got["verdict_back"] = str(w.session.view.verdict)
+key(glfw.KEY_S)
+got["saved_message"] = w.message
+got["saved_matrix"] = np.array(json.loads(path.read_text())["objects"][w.session.selected]["matrix"])
+got["shown_matrix"] = w.session.view.objects[w.session.selected].placement.matrix
+np.savez(out, **got)
 w.close()
 """
 
@@ -197,29 +308,101 @@ def display():
     proc.wait(timeout=10)
 
 
-def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(display, dataset, manifest, tmp_path):
+@pytest.fixture(scope="module")
+def window_run(display, dataset, tmp_path_factory):
+    """The window under Xvfb, driven by its key, mouse-button, cursor and wheel callbacks; what
+    it showed, in a .npz file."""
     root, ids = dataset
-    out = tmp_path / "shots.npz"
+    work = tmp_path_factory.mktemp("window")
+    manifest = write_manifest(work / "m.json", root, work / "out")
+    out = work / "shots.npz"
     env = dict(os.environ, DISPLAY=display)
     run = subprocess.run([sys.executable, "-c", _WINDOW_SCRIPT, str(manifest), ids[0].name, str(out)], env=env,
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
-    got = np.load(out)
+    return manifest, ids[0], np.load(out)
+
+
+def _same(img, ref, where=None):
+    diff = np.abs(img.astype(int) - ref.astype(int)).max(axis=2)
+    if where is not None:
+        diff = diff[where]
+    assert diff.mean() < 1.0 and (diff > 8).mean() < 0.005, (diff.mean(), (diff > 8).mean())
+
+
+def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(window_run):
+    manifest, ident, got = window_run
     assert "1: composed" in str(got["title_before"]) and "2: Irpv" in str(got["title"])
-    assert str(got["pass_name"]) == "irpv" and "3D view" in str(got["title_3d"])
+    assert str(got["pass_name"]) == "irpv" and "placement OK" in str(got["title"])
     before, after = got["before"], got["after"]
     assert after.shape == (H, W, 3)  # window sized to the image
     assert after.std() > 10 and (after.max(axis=2) > 0).mean() > 0.02  # not blank
     assert (np.abs(after.astype(int) - before).max(axis=2) > 30).mean() > 0.3  # the key changed the pass
-    # the same view from the headless renderer (EGL, same pipeline, same seed: same placement)
-    s = PreviewSession(load_manifest(manifest), ids[0].name)
+    # the same view from the headless renderer (EGL, same pipeline, same seed: same placement),
+    # everywhere but under the overlay's text panels
+    s = PreviewSession(load_manifest(manifest), ident.name)
     try:
         s.load()
         ref_after, ref_before = s.pass_image("irpv"), s.pass_image("composed")
     finally:
         s.close()
-    for img, ref in ((after, ref_after), (before, ref_before), (got["framebuffer"], ref_after)):
-        diff = np.abs(img.astype(int) - ref.astype(int)).max(axis=2)
-        assert diff.mean() < 1.0 and (diff > 8).mean() < 0.005, (diff.mean(), (diff > 8).mean())
-    view3d = got["view3d"]
-    assert view3d.std() > 5  # the point cloud is drawn
+    main_area, main_before = ~got["mask"], ~got["mask_before"]
+    assert main_area.mean() > 0.6 and main_before.mean() > 0.6
+    _same(after, ref_after, main_area)
+    _same(before, ref_before, main_before)
+    _same(got["framebuffer"], ref_after, main_area)
+    _same(got["framebuffer_no_overlay"], ref_after)  # overlay off (O): the whole view
+    _same(got["after_no_overlay"], ref_after)
+
+
+def test_overlay_shows_pass_image_set_and_verdict_over_the_view(window_run):
+    manifest, ident, got = window_run
+    lines = [str(t) for t in got["overlay_lines"]]
+    assert lines[0].startswith("2: Irpv") and ident.key in lines[0]
+    assert lines[2] == "placement OK"
+    on, off, text = got["after"].astype(int), got["after_no_overlay"].astype(int), got["mask"]
+    changed = np.abs(on - off).max(axis=2) > 8
+    assert changed[text].mean() > 0.3  # the screenshot differs where the overlay is...
+    assert not changed[~text].any()  # ...and nowhere else
+    assert got["mask_help"].sum() > got["mask"].sum()  # H: the keys on screen
+    # the 3D view's overlay: the legend of colours at the bottom
+    assert got["mask_3d"][-H // 3:].any() and not got["mask"][-H // 3:].any()
+    legend = [str(t) for t in got["legend"]]
+    assert "accepted position" in legend and "selected object's box" in legend
+
+
+def test_mouse_orbits_pans_and_zooms_the_3d_view(window_run):
+    manifest, ident, got = window_run
+    o0, o1, o2, o3 = got["orbit0"], got["orbit1"], got["orbit2"], got["orbit3"]  # yaw, pitch, distance, target xyz
+    # left drag of (60, 25) px: yaw and pitch turn by 0.01 rad per pixel, the rest stays
+    assert o1[0] == pytest.approx(o0[0] - 0.60) and o1[1] == pytest.approx(min(o0[1] + 0.25, 1.45))
+    assert np.allclose(o1[2:], o0[2:])
+    # right drag of (40, 30) px: the target moves (against the camera's right, along its up), the angles stay
+    assert np.allclose(o2[:3], o1[:3])
+    moved = o2[3:] - o1[3:]
+    k = o1[2] * 0.0015
+    assert np.linalg.norm(moved) == pytest.approx(k * 50.0, rel=1e-6)
+    assert moved @ got["pan_right"] == pytest.approx(-40 * k) and moved @ got["pan_up"] == pytest.approx(30 * k)
+    # wheel up twice: 10 % closer per step, nothing else changes
+    assert o3[2] == pytest.approx(o2[2] * 0.81) and np.allclose(np.delete(o3, 2), np.delete(o2, 2))
+    # and the picture follows each of them
+    outside = ~got["mask_3d"]
+    for a, b in (("view3d", "view_orbit"), ("view_orbit", "view_pan"), ("view_pan", "view_zoom")):
+        changed = (np.abs(got[a].astype(int) - got[b]).max(axis=2) > 30)[outside].mean()
+        assert changed > 0.05, (a, b, changed)
+    assert got["view3d"].std() > 5  # the point cloud is drawn
+
+
+def test_s_key_refuses_a_pose_that_breaks_the_rules_shift_s_saves_anyway(window_run):
+    manifest, ident, got = window_run
+    moved = str(got["verdict_moved"])
+    assert moved.startswith("FAILS") and any(f"{rule}:" in moved for rule in RULE_OF.values())
+    assert moved in str(got["title_moved"])
+    assert str(got["refused_message"]).startswith("not saved:") and "Shift+S" in str(got["refused_message"])
+    assert not got["refused_exists"]
+    assert moved in [str(t) for t in got["refused_overlay"]]
+    assert str(got["refused_message"]) in [str(t) for t in got["refused_overlay"]]
+    assert "anyway" in str(got["anyway_message"]) and got["anyway_exists"]
+    assert str(got["verdict_back"]) == "placement OK"
+    assert str(got["saved_message"]).startswith("saved placement:") and "anyway" not in str(got["saved_message"])
+    assert np.allclose(got["saved_matrix"], got["shown_matrix"], atol=1e-5)
