@@ -229,28 +229,38 @@ class _Grid:
     normals: np.ndarray  # (h, w, 3) unit normals facing the camera (nan where not planar)
 
 
-def _cells(a: np.ndarray, f: int) -> list[np.ndarray]:
-    """The f*f strided views of ``a`` that make up its f x f cells (one pixel of each cell)."""
+def _cell_reduce(a: np.ndarray, f: int, op) -> np.ndarray:
+    """Min (``cv2.erode``) or max (``cv2.dilate``) of ``a`` over each f x f cell, (h, w)."""
     h, w = a.shape[0] // f, a.shape[1] // f
-    return [a[i: h * f: f, j: w * f: f] for i in range(f) for j in range(f)]
+    if f == 1:
+        return a[:h, :w].copy()
+    # the kernel's anchor (f // 2) puts cell (i, j)'s pixels exactly under output i*f + f//2
+    out = op(np.ascontiguousarray(a[: h * f, : w * f]), np.ones((f, f), np.uint8),
+             borderType=cv2.BORDER_REPLICATE)
+    return out[f // 2:: f, f // 2:: f][:h, :w]
+
+
+def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:
+    """Mean of ``a`` (float32) over each f x f cell, (h, w)."""
+    h, w = a.shape[0] // f, a.shape[1] // f
+    a = a[: h * f, : w * f]
+    return cv2.resize(a, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else a.copy()
 
 
 def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int) -> _Grid:
     H, W = label_ids.shape
     f = max(1, int(round(W / work_width)))
     h, w = H // f, W // f
-    lin_full = _LUT[rgb[: h * f, : w * f]]
-    lin = cv2.resize(lin_full, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else lin_full
-    labels = _cells(label_ids, f)
-    lab_min, lab_max = np.minimum.reduce(labels), np.maximum.reduce(labels)
+    lin = _cell_mean(cv2.LUT(rgb, _LUT), f)
+    lab_min, lab_max = _cell_reduce(label_ids, f, cv2.erode), _cell_reduce(label_ids, f, cv2.dilate)
     # depth of a cell: the mean of its known depths (stereo leaves holes), if half are known
-    depths = [d.astype(np.float32) for d in _cells(depth, f)]
-    known = [np.isfinite(d) for d in depths]
-    n_known = np.sum(known, axis=0)
-    dmin = np.minimum.reduce([np.where(k, d, np.inf) for k, d in zip(known, depths)])
-    dmax = np.maximum.reduce([np.where(k, d, -np.inf) for k, d in zip(known, depths)])
-    dsum = np.sum([np.where(k, d, 0.0) for k, d in zip(known, depths)], axis=0)
-    clipped = np.maximum.reduce([c.max(axis=-1) for c in _cells(rgb, f)]) >= 250
+    d = depth.astype(np.float32, copy=False)
+    known = np.isfinite(d)
+    n_known = np.rint(_cell_mean(known.astype(np.float32), f) * (f * f))
+    dmin = _cell_reduce(np.where(known, d, np.float32(np.inf)), f, cv2.erode)
+    dmax = _cell_reduce(np.where(known, d, np.float32(-np.inf)), f, cv2.dilate)
+    dsum = _cell_mean(np.where(known, d, np.float32(0.0)), f).astype(np.float64) * (f * f)
+    clipped = _cell_reduce(cv2.max(cv2.max(rgb[..., 0], rgb[..., 1]), rgb[..., 2]), f, cv2.dilate) >= 250
     pure = (lab_min == lab_max) & (2 * n_known >= f * f) & (dmax <= dmin * 1.04 + 0.02) & ~clipped
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.where(2 * n_known >= f * f, dsum / np.maximum(n_known, 1), np.nan).astype(np.float64)
