@@ -30,7 +30,7 @@ from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .lighting import camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
-from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, place_object
+from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, check_pose, place_object
 from .render import RenderObject, Renderer
 from .writer import write_outputs, write_record
 from .placements import IGNORE_SAVED, read_saved, saved_result  # saved placements (preview)
@@ -201,11 +201,20 @@ class Pipeline:
                     failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
                                      "attempts": result.attempts, "rejections": result.rejections})
                     continue
+                check = None
+                if saved is not None:  # a saved pose is used as it is; the record says whether the
+                    # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
+                    why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
+                                     spec.allowed_surfaces, [p for _, p, _ in placed])
+                    check = {"ok": why is None} if why is None else \
+                        {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+                    if why is not None:
+                        log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
                 cid = label_id(spec.class_name)
                 inst = new_instance_id(image_set.instance_ids, cid, taken)
                 taken.add(inst)
                 placed.append((spec, result.placement, inst))
-                records.append({"result": result, "spec": spec, "instance_id": inst, "model": model})
+                records.append({"result": result, "spec": spec, "instance_id": inst, "model": model, "check": check})
         record = {
             "synthcompose_version": __version__,
             "image_set": ident.key,
@@ -304,6 +313,7 @@ class Pipeline:
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
                     "placement_source": "random" if saved is None else "saved",  # saved placements
+                    **({} if rec["check"] is None else {"placement_check": rec["check"]}),
                 })
             # --- annotations (annotations.py): amodal boxes and visible-mask RLE in the record,
             # gtFine polygons and gtBbox3d files; before the record, which is written last

@@ -98,6 +98,7 @@ def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     assert [o["name"] for o in rec["objects"]] == [o.name for o in saved.objects]
     for obj, so in zip(rec["objects"], saved.objects):
         assert obj["placement_source"] == "saved"
+        assert obj["placement_check"] == {"ok": True}  # the pose S saved passes the batch's rules
         assert np.allclose(obj["pose"]["vehicle"]["matrix"], so.matrix, atol=1e-5)
     other = json.loads(ids[1].path(m.output, "record").read_text())
     assert "placement_file" not in other and all(o["placement_source"] == "random" for o in other["objects"])
@@ -173,6 +174,25 @@ def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_
             assert not np.allclose(read_saved(m.output, ids[0]).objects[0].matrix, saved.objects[0].matrix)
     finally:
         s.close()
+
+
+def test_batch_records_that_a_force_saved_pose_breaks_a_rule(dataset, manifest):
+    root, ids = dataset
+    m = load_manifest(manifest)
+    s = PreviewSession(m, ids[0].name)
+    try:
+        s.load()
+        s.move(dy=4.0)  # off the road
+        why = s.view.verdict.failures[0][2]
+        s.save(force=True)  # Shift+S
+    finally:
+        s.close()
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    rec = json.loads(ids[0].path(m.output, "record").read_text())
+    obj = rec["objects"][0]
+    assert obj["placement_source"] == "saved"  # used as saved, and the record says what it breaks
+    assert obj["placement_check"]["ok"] is False
+    assert (obj["placement_check"]["rule"], obj["placement_check"]["reason"]) == (why.rule, why.reason)
 
 
 def test_overlay_picture_has_the_text_on_panels_and_is_clear_elsewhere():
