@@ -26,6 +26,7 @@ def main() -> None:
     ap.add_argument("--count", type=int, default=40, help="sunny scenes (and a quarter as many overcast)")
     ap.add_argument("--size", default="1024x512", help="WxH")
     ap.add_argument("--seed", type=int, default=1000)
+    ap.add_argument("--work-width", type=int, default=700, help="estimate_lighting's working grid width")
     ap.add_argument("--verbose", action="store_true")
     args = ap.parse_args()
     w, h = (int(v) for v in args.size.split("x"))
@@ -39,7 +40,7 @@ def main() -> None:
         arrays = render_scene(scene)
         depth = disparity_to_depth(arrays["disparity"], scene.camera)
         t0 = time.perf_counter()
-        est = estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera)
+        est = estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera, args.work_width)
         times.append(time.perf_counter() - t0)
         err = azimuth_error(est.sun_azimuth_deg, az)
         if est.sunny:
@@ -59,9 +60,10 @@ def main() -> None:
                              light=SceneLight(sun_fraction=0.0))
         arrays = render_scene(scene)
         depth = disparity_to_depth(arrays["disparity"], scene.camera)
-        overcast_sunny += estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera).sunny
+        overcast_sunny += estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera,
+                                             args.work_width).sunny
     e = np.array(errors) if errors else np.array([np.nan])
-    print(f"size {w}x{h}, {args.count} sunny scenes (sun azimuth uniform, elevation 20-65 deg), {n_over} overcast")
+    print(f"size {w}x{h} (working grid {args.work_width} wide), {args.count} sunny scenes (sun azimuth uniform, elevation 20-65 deg), {n_over} overcast")
     print(f"sun detected          : {detected}/{args.count} ({100 * detected / args.count:.0f}%)")
     print(f"azimuth within 20 deg : {int((e <= 20).sum())}/{detected} detected "
           f"({100 * np.mean(e <= 20):.0f}%), {100 * (e <= 20).sum() / args.count:.0f}% of all sunny")
