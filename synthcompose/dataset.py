@@ -19,7 +19,7 @@ import numpy as np
 
 from .camera import Camera
 from .errors import InputError
-from .fileio import read_png
+from .fileio import map_threads, read_png
 from .labels import KNOWN_IDS
 
 _NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
@@ -143,18 +143,15 @@ def check_disparity(path: Path, disparity: np.ndarray, width: int) -> None:
 def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
     """Read and check all files of one image set; raises :class:`InputError` naming the file."""
     rgb_path = ident.path(root, "rgb")
-    rgb = read_png(rgb_path, "rgb8")
-    h, w = rgb.shape[:2]
     label_path = ident.path(root, "labelIds")
     inst_path = ident.path(root, "instanceIds")
-    labelled = label_path.exists() or inst_path.exists()
-    if labelled:  # both must be there; a set without any gtFine file is unlabelled
-        labels = read_png(label_path, "gray8")
-        instances = read_png(inst_path, "gray16")
-    else:
-        labels, instances = np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint16)
     disp_path = ident.path(root, "disparity")
-    disparity = read_png(disp_path, "gray16")
+    labelled = label_path.exists() or inst_path.exists()
+    # both gtFine files must be there; a set without any is unlabelled. Decoded side by side.
+    files = [(rgb_path, "rgb8")] + ([(label_path, "gray8"), (inst_path, "gray16")] if labelled else [])
+    rgb, *gt, disparity = map_threads(lambda f: read_png(*f), files + [(disp_path, "gray16")])
+    h, w = rgb.shape[:2]
+    labels, instances = gt if labelled else (np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint16))
     for path, img in ((label_path, labels), (inst_path, instances), (disp_path, disparity)):
         if img.shape[:2] != (h, w):
             raise InputError(path, f"image is {img.shape[1]}x{img.shape[0]} but {rgb_path.name} is {w}x{h}")

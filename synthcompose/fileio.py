@@ -9,8 +9,9 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Callable, Iterable, Literal, TypeVar
 
 import cv2
 import numpy as np
@@ -21,6 +22,20 @@ from .errors import InputError, OutputError
 PNG_COMPRESSION = 1
 
 PngKind = Literal["rgb8", "gray8", "gray16"]
+T, R = TypeVar("T"), TypeVar("R")
+
+
+def map_threads(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """``[fn(x) for x in items]`` on as many threads as OpenCV may use (``cv2.setNumThreads``:
+    all cores, or a worker's share of them). PNG decoding and encoding release the GIL, so an
+    image set's files are coded side by side. Results in order; the first failing item's
+    exception (in order) is raised, as a plain loop would."""
+    items = list(items)
+    n = min(max(1, cv2.getNumThreads()), len(items))
+    if n <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(n, thread_name_prefix="synthcompose-io") as pool:
+        return list(pool.map(fn, items))
 
 
 def read_png(path: str | Path, kind: PngKind) -> np.ndarray:

@@ -11,24 +11,26 @@ from typing import Any
 
 from .compose import Composed
 from .dataset import ImageSetId
-from .fileio import write_bytes_atomic, write_json, write_png
+from .fileio import map_threads, write_bytes_atomic, write_json, write_png
 from .labels import colorize
 
 
 def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_json: bytes) -> list[Path]:
     """Write the six Cityscapes files of the augmented set; returns their paths."""
     files = {
-        "rgb": composed.rgb,
-        "labelIds": composed.label_ids,
-        "instanceIds": composed.instance_ids.astype("uint16"),
-        "color": colorize(composed.label_ids),
-        "disparity": composed.disparity,
+        "rgb": lambda: composed.rgb,
+        "labelIds": lambda: composed.label_ids,
+        "instanceIds": lambda: composed.instance_ids.astype("uint16"),
+        "color": lambda: colorize(composed.label_ids),
+        "disparity": lambda: composed.disparity,
     }
-    written = []
-    for kind, arr in files.items():
+
+    def write(kind: str) -> Path:
         path = ident.path(out_root, kind)
-        write_png(path, arr)
-        written.append(path)
+        write_png(path, files[kind]())
+        return path
+
+    written = map_threads(write, files)  # encoded side by side (fileio.map_threads)
     cam = ident.path(out_root, "camera")
     write_bytes_atomic(cam, camera_json)
     written.append(cam)
