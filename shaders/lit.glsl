@@ -75,6 +75,7 @@ layout(location = 1) out float out_alpha;  // object coverage
 layout(location = 2) out float out_odepth; // object depth (0 on the plane)
 layout(location = 3) out vec2 out_plane;   // (plane depth, plane coverage)
 layout(location = 4) out vec4 out_object;  // (object colour, 1) on the object, 0 on the plane
+layout(location = 5) out vec4 out_key;     // the material's base colour factor (fill.glsl)
 
 const vec2 DISC[12] = vec2[](vec2(-0.326, -0.406), vec2(-0.840, -0.074), vec2(-0.696, 0.457),
     vec2(-0.203, 0.621), vec2(0.962, -0.195), vec2(0.473, -0.480), vec2(0.519, 0.767),
@@ -182,5 +183,6 @@ void main() {
     out_odepth = u_is_plane ? 0.0 : v_depth;
     out_plane = u_is_plane ? vec2(v_depth, 1.0) : vec2(0.0);
     out_object = u_is_plane ? vec4(0.0) : vec4(color, 1.0);
+    out_key = u_is_plane ? vec4(-1.0) : v_color;
 }
 #endif

@@ -88,6 +88,14 @@ SCHEMA: dict[str, Any] = {
                 # --- end lighting modes
             },
         },
+        "render": {
+            "type": "object", "additionalProperties": False,
+            "properties": {
+                # render.py: light shaded per sample of 4x MSAA, or per pixel and filled into the
+                # samples (3x cheaper on llvmpipe); auto: per pixel on llvmpipe, per sample on a GPU
+                "shading": {"enum": ["auto", "pixel", "sample"]},
+            },
+        },
     },
 }
 
@@ -126,6 +134,7 @@ class Manifest:
     match_exposure: bool = False  # estimate mode: scale the light to the photo's exposure
     camera_match: bool = True  # give the inserted objects the photo's blur and noise
     # --- end lighting modes
+    shading: str = "auto"  # render.py: "pixel", "sample", or "auto" (by the GL device)
 
     @property
     def config_hash(self) -> str:
@@ -198,7 +207,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         object_choice=data.get("object_choice", "weights"), objects=tuple(objects),
         rules=rules, lighting=lighting, raw=data,
         lighting_mode=lighting_mode, match_exposure=bool(lt.get("match_exposure", False)),  # lighting modes
-        camera_match=bool(lt.get("camera_match", True)))
+        camera_match=bool(lt.get("camera_match", True)),
+        shading=data.get("render", {}).get("shading", "auto"))
 
 
 def load_manifest(path: str | Path) -> Manifest:

@@ -129,7 +129,7 @@ class Pipeline:
         self.trace: list | None = None  # a list: gets (candidate point, rejection reason) of every candidate
         self.placement_override = None  # None: the saved file if any; IGNORE_SAVED; or a SavedPlacement
         # --- end preview hooks
-        self.renderer = Renderer(self.gl)
+        self.renderer = Renderer(self.gl, shading=manifest.shading)
         self.composer = Composer(self.gl)
         if weights is None:
             weights = object_weights([o.weight for o in manifest.objects], [], "weights")

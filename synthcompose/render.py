@@ -27,6 +27,7 @@ from .models import Model
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 SAMPLES = 4
+SHADING = ("auto", "pixel", "sample")
 
 
 @dataclass(frozen=True)
@@ -210,6 +211,8 @@ class _GpuModel:
                     fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
                     if tbo is not None:
                         fmt.append((tbo, "4f", "in_tangent"))
+                elif name == "fill":
+                    fmt = [(vbo, "3f 20x 4f 8x", "in_position", "in_color")]
                 else:
                     fmt = [(vbo, "3f 44x", "in_position")]
                 vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
@@ -219,10 +222,24 @@ class _GpuModel:
 class Renderer:
     """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
 
-    def __init__(self, gl: GLContext, shadow_size: int = 1024) -> None:
+    def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto") -> None:
+        """``shading``: "sample" runs the lighting for every sample of the 4x multisampled lit
+        pass; "pixel" once per pixel, at its centre, then fills the samples (fill.glsl) - on
+        llvmpipe, which shades every sample, the lit pass takes about a third of the time, at
+        the cost of parts thinner than a pixel (a window seal) showing in pieces; "auto": per
+        pixel on a software renderer (llvmpipe), per sample on a GPU."""
+        if shading not in SHADING:
+            raise ValueError(f"shading must be one of {', '.join(SHADING)}, not {shading!r}")
         self.gl = gl.activate()
+        if shading == "auto":
+            shading = "pixel" if any(s in gl.renderer_name.lower() for s in ("llvmpipe", "softpipe", "swrast")) \
+                else "sample"
+        self.shading = shading
         ctx = gl.ctx
-        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth")}
+        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth"),
+                         "fill": gl.program("fill")}
+        self._neighbours = gl.program("fill", NEIGHBOURS=1)
+        self._frame_vao = gl.own(ctx.vertex_array(self._neighbours, []))  # one full-frame triangle
         self._models: dict[str, _GpuModel] = {}
         # bound to sampler units that have nothing to show: every active sampler of a draw
         # must see a texture of its own kind (another pass may have left an integer one)
@@ -243,6 +260,10 @@ class Renderer:
         self._plane_vao = gl.own(ctx.vertex_array(
             self.programs["lit"], [(self._plane_vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv",
                                     "in_color", "in_material")], index_buffer=self._plane_ibo,
+            index_element_size=4))
+        self._plane_vao_fill = gl.own(ctx.vertex_array(
+            self.programs["fill"], [(self._plane_vbo, "3f 20x 4f 8x", "in_position", "in_color")],
+            index_buffer=self._plane_ibo,
             index_element_size=4))
 
     def _gpu_model(self, model: Model) -> _GpuModel:
@@ -354,38 +375,20 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
-        for with_objects, fbo in ((True, ms_fbo), (False, ms_fbo_ir)):
-            fbo.use()
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            prog["u_shadows"].value = with_objects
-            prog["u_is_plane"].value = True
-            prog["u_has_texture"].value = False
-            prog["u_has_normal_map"].value = False
-            for obj in objects:
-                hx, hy = obj.plane_half(lighting)
-                scale = np.diag([hx, hy, 1.0, 1.0])
-                prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
-                prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
-                prog["u_sun_scale"].value = float(obj.sun_visibility)
-                self._plane_vao.render(moderngl.TRIANGLES)
-            if with_objects:
-                # objects drawn over their planes: polygon offset keeps the contact clean
-                prog["u_is_plane"].value = False
-                for obj in objects:
-                    prog["u_model"].write(_gl(obj.vehicle_from_object))
-                    prog["u_sun_scale"].value = float(obj.sun_visibility)
-                    for vaos, maps in self._gpu_model(obj.model).parts:
-                        prog["u_has_texture"].value = maps.base is not None
-                        if maps.base is not None:
-                            maps.base.use(0)
-                        prog["u_has_normal_map"].value = maps.normal is not None
-                        if maps.normal is not None:
-                            maps.normal.use(6)
-                            prog["u_normal_scale"].value = maps.normal_scale
-                        vaos["lit"].render(moderngl.TRIANGLES)
-                ctx.copy_framebuffer(resolve, ms_fbo)
-            else:
-                ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
+        if self.shading == "pixel":
+            self._lit_per_pixel(objects, lighting, size, view, proj, ms_fbo, resolve)
+        else:
+            ms_fbo.use()
+            ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            prog["u_shadows"].value = True
+            self._draw_lit(objects, lighting, objects_too=True)
+            ctx.copy_framebuffer(resolve, ms_fbo)
+        # Ir: the planes alone, unshadowed (cheap: shaded per sample as it is)
+        ms_fbo_ir.use()
+        ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        prog["u_shadows"].value = False
+        self._draw_lit(objects, lighting, objects_too=False)
+        ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
 
         # integer id + depth at pixel centres
         tex["id"] = gl.texture(size, 1, dtype="u4")
@@ -406,6 +409,95 @@ class Renderer:
         for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
             gl.free(obj)
         return RenderPasses(roi, cam, tex, gl)
+
+    def _lit_per_pixel(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
+                       view: np.ndarray, proj: np.ndarray, ms_fbo: moderngl.Framebuffer,
+                       resolve: moderngl.Framebuffer) -> None:
+        """The lit pass with the light shaded once per pixel (``shading="pixel"``)."""
+        gl, ctx = self.gl, self.gl.ctx
+        prog = self.programs["lit"]
+        # the light, shaded once per pixel at its centre (1x): the objects over their planes
+        # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
+        # objects' shadows; then fill.glsl rasterises the same geometry at SAMPLES per pixel
+        # with those colours, and the resolve averages the samples (MSAA's colour, without
+        # llvmpipe shading every sample: a third of the time)
+        centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
+        centre_depth = gl.own(ctx.depth_renderbuffer(size))
+        object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
+        objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
+        planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
+        prog["u_shadows"].value = True
+        for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
+            fbo.use()
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            self._draw_lit(objects, lighting, objects_too=with_objects)
+        # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
+        other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
+        others_fbo = gl.own(ctx.framebuffer([other_col, other_key]))
+        textures = {"u_object_col": object_col, "u_object_key": object_key, "u_plane_col": plane_col,
+                    "u_other_col": other_col, "u_other_key": other_key}
+        units = {name: unit for unit, name in enumerate(textures, start=7)}
+        object_col.use(units["u_object_col"])
+        object_key.use(units["u_object_key"])
+        for name in ("u_object_col", "u_object_key"):
+            self._neighbours[name].value = units[name]
+        others_fbo.use()
+        ctx.disable(moderngl.DEPTH_TEST)
+        self._frame_vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.enable(moderngl.DEPTH_TEST)
+        fill = self.programs["fill"]
+        fill["u_view"].write(_gl(view))
+        fill["u_proj"].write(_gl(proj))
+        for name, texture in textures.items():
+            fill[name].value = units[name]
+            texture.use(units[name])
+        ms_fbo.use()
+        ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        fill["u_is_plane"].value = True
+        for obj in objects:
+            hx, hy = obj.plane_half(lighting)
+            fill["u_model"].write(_gl(obj.vehicle_from_object @ np.diag([hx, hy, 1.0, 1.0])))
+            self._plane_vao_fill.render(moderngl.TRIANGLES)
+        fill["u_is_plane"].value = False
+        for obj in objects:
+            fill["u_model"].write(_gl(obj.vehicle_from_object))
+            for vaos, _ in self._gpu_model(obj.model).parts:
+                vaos["fill"].render(moderngl.TRIANGLES)
+        ctx.copy_framebuffer(resolve, ms_fbo)
+        for obj in (objects_fbo, planes_fbo, others_fbo, centre_depth, *centre, object_col, object_key, plane_col,
+                    other_col, other_key):
+            gl.free(obj)
+
+    def _draw_lit(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool) -> None:
+        """Draw the objects' ground planes and (``objects_too``) the objects over them with the
+        lit program, whose uniforms render() has set, into the bound framebuffer."""
+        prog = self.programs["lit"]
+        prog["u_is_plane"].value = True
+        prog["u_has_texture"].value = False
+        prog["u_has_normal_map"].value = False
+        for obj in objects:
+            hx, hy = obj.plane_half(lighting)
+            scale = np.diag([hx, hy, 1.0, 1.0])
+            prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
+            prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
+            prog["u_sun_scale"].value = float(obj.sun_visibility)
+            self._plane_vao.render(moderngl.TRIANGLES)
+        if not objects_too:
+            return
+        # objects drawn over their planes
+        prog["u_is_plane"].value = False
+        for obj in objects:
+            prog["u_model"].write(_gl(obj.vehicle_from_object))
+            prog["u_sun_scale"].value = float(obj.sun_visibility)
+            for vaos, maps in self._gpu_model(obj.model).parts:
+                prog["u_has_texture"].value = maps.base is not None
+                if maps.base is not None:
+                    maps.base.use(0)
+                prog["u_has_normal_map"].value = maps.normal is not None
+                if maps.normal is not None:
+                    maps.normal.use(6)
+                    prog["u_normal_scale"].value = maps.normal_scale
+                vaos["lit"].render(moderngl.TRIANGLES)
 
     def _environment(self, photo: np.ndarray) -> moderngl.Texture:
         """The photo at half size as a mipmapped sRGB texture (reads linear): what glossy paint

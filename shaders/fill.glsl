@@ -1,0 +1,110 @@
+#version 330 core
+// Multisampled fill of the lit pass (render.py). lit.glsl shaded the light once per pixel, at
+// its centre (objects over their planes; the planes alone); this pass rasterises the same
+// geometry at 4 samples per pixel and gives every sample its pixel's colour - the colour MSAA
+// gives on a GPU - so that the costly lighting runs once per pixel, not once per sample (Mesa's
+// llvmpipe shades every sample). Outputs as lit.glsl's.
+//
+// With NEIGHBOURS defined: a 1x full-frame pass before it that finds, per pixel, the colour of
+// the object's other material nearby (the centre shows one material at most; a sample of the
+// pixel can fall on another one, or on the object where the centre missed it): the mean colour
+// of the 3 x 3 neighbours that show the first other material found, and its key.
+#if defined VERTEX_SHADER
+#if defined NEIGHBOURS
+void main() {  // one triangle over the whole frame
+    vec2 p = vec2(float((gl_VertexID & 1) << 2), float((gl_VertexID & 2) << 1)) - 1.0;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#else
+layout(location = 0) in vec3 in_position;
+layout(location = 3) in vec4 in_color;
+uniform mat4 u_model;
+uniform mat4 u_view;
+uniform mat4 u_proj;
+out float v_depth;
+out vec4 v_key;
+void main() {
+    v_key = in_color;
+    vec4 optical = u_view * (u_model * vec4(in_position, 1.0));
+    v_depth = optical.z;
+    gl_Position = u_proj * optical;
+}
+#endif
+#elif defined FRAGMENT_SHADER
+uniform sampler2D u_object_col;  // (object colour, 1) where an object covers the pixel centre
+uniform sampler2D u_object_key;  // the material there: its base colour factor (lit.glsl's out_key)
+bool same(vec4 a, vec4 b) { return all(lessThan(abs(a - b), vec4(1e-3))); }
+
+#if defined NEIGHBOURS
+layout(location = 0) out vec4 out_colour;  // (mean colour, 1), or 0 where there is none
+layout(location = 1) out vec4 out_key;
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 last = textureSize(u_object_col, 0) - 1;
+    bool covered = texelFetch(u_object_col, p, 0).a > 0.5;
+    vec4 own = texelFetch(u_object_key, p, 0);
+    vec4 key = vec4(-1.0);
+    bool found = false;
+    for (int i = 0; i < 9 && !found; ++i) {
+        ivec2 q = clamp(p + ivec2(i % 3 - 1, i / 3 - 1), ivec2(0), last);
+        vec4 k = texelFetch(u_object_key, q, 0);
+        if (texelFetch(u_object_col, q, 0).a > 0.5 && !(covered && same(k, own))) { key = k; found = true; }
+    }
+    vec4 sum = vec4(0.0);
+    for (int i = 0; i < 9 && found; ++i) {
+        ivec2 q = clamp(p + ivec2(i % 3 - 1, i / 3 - 1), ivec2(0), last);
+        vec4 c = texelFetch(u_object_col, q, 0);
+        if (c.a > 0.5 && same(texelFetch(u_object_key, q, 0), key)) sum += vec4(c.rgb, 1.0);
+    }
+    out_colour = sum.a > 0.0 ? vec4(sum.rgb / sum.a, 1.0) : vec4(0.0);
+    out_key = key;
+}
+#else
+in float v_depth;
+in vec4 v_key;                   // this fragment's material
+uniform bool u_is_plane;
+uniform sampler2D u_plane_col;   // the planes alone, lit and shadowed, at the pixel centre
+uniform sampler2D u_other_col;   // the NEIGHBOURS pass
+uniform sampler2D u_other_key;
+layout(location = 0) out vec4 out_color;
+layout(location = 1) out float out_alpha;
+layout(location = 2) out float out_odepth;
+layout(location = 3) out vec2 out_plane;
+layout(location = 4) out vec4 out_object;
+
+// The object's colour for a sample of this pixel: the centre's where the centre shows this
+// material, else the nearby colour of this material (an edge of the object, or between two of
+// its materials); failing both (a part thinner than a pixel: a window seal, a trim), what the
+// pixel shows. (Its base colour under that light looked right on seals but made bright specks
+// where the neighbour is glass or chrome, whose colour is mostly reflection.)
+vec3 object_colour(ivec2 p) {
+    vec4 c = texelFetch(u_object_col, p, 0);
+    vec4 k = texelFetch(u_object_key, p, 0);
+    if (c.a > 0.5 && same(k, v_key)) return c.rgb;
+    vec4 o = texelFetch(u_other_col, p, 0);
+    vec4 ok = texelFetch(u_other_key, p, 0);
+    if (o.a > 0.5 && same(ok, v_key)) return o.rgb;
+    if (c.a > 0.5) return c.rgb;
+    if (o.a > 0.5) return o.rgb;
+    return texelFetch(u_plane_col, p, 0).rgb;
+}
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    if (u_is_plane) {
+        out_color = vec4(texelFetch(u_plane_col, p, 0).rgb, 1.0);
+        out_alpha = 0.0;
+        out_odepth = 0.0;
+        out_plane = vec2(v_depth, 1.0);
+        out_object = vec4(0.0);
+    } else {
+        vec3 c = object_colour(p);
+        out_color = vec4(c, 1.0);
+        out_alpha = 1.0;
+        out_odepth = v_depth;
+        out_plane = vec2(0.0);
+        out_object = vec4(c, 1.0);
+    }
+}
+#endif
+#endif
