@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -76,20 +77,27 @@ def test_every_pass_image_is_full_frame_and_not_blank(manifest):
         s.close()
 
 
+@contextmanager
+def _loaded(m, frame: str):
+    """A preview session (no window) with its first view loaded; closed afterwards."""
+    s = PreviewSession(m, frame)
+    try:
+        s.load()
+        yield s
+    finally:
+        s.close()
+
+
 def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     root, ids = dataset
     m = load_manifest(manifest)
-    s = PreviewSession(m, ids[0].name)
-    try:
-        s.load()
+    with _loaded(m, ids[0].name) as s:
         before = s.view.objects[0].placement.matrix
         s.move(dx=0.5, dyaw_deg=10.0)  # moved by hand, as the arrow and Q keys do
         assert s.view.source == "moved"
         moved = s.view.objects[0].placement.matrix
         assert np.hypot(*(moved[:2, 3] - before[:2, 3])) == pytest.approx(0.5, abs=1e-6)
         path = s.save()
-    finally:
-        s.close()
     assert path == placement_path(m.output, ids[0]) and path.is_file()
     saved = read_saved(m.output, ids[0])
     assert main(["batch", str(manifest), "--no-progress"]) == 0
@@ -103,12 +111,9 @@ def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     other = json.loads(ids[1].path(m.output, "record").read_text())
     assert "placement_file" not in other and all(o["placement_source"] == "random" for o in other["objects"])
     # the window shows the saved placement next time
-    s = PreviewSession(m, ids[0].name)
-    try:
-        assert s.load().source == "saved"
+    with _loaded(m, ids[0].name) as s:
+        assert s.view.source == "saved"
         assert np.allclose(s.view.objects[0].placement.matrix, moved, atol=1e-5)
-    finally:
-        s.close()
     # resume keeps it while the file is unchanged, redoes the set when the file changes
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     summary = json.loads((m.output / "summary.json").read_text())
@@ -138,9 +143,7 @@ def test_bad_saved_placement_fails_that_set_naming_the_file(dataset, manifest):
 def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_one(dataset, manifest):
     root, ids = dataset
     m = load_manifest(manifest)
-    s = PreviewSession(m, ids[0].name)
-    try:
-        s.load()
+    with _loaded(m, ids[0].name) as s:
         assert s.view.verdict.ok and str(s.view.verdict) == "placement OK"  # the batch accepted it
         start = s.view.objects[0].placement.matrix
         s.move(dy=4.0)  # 4 m to the left: off the road, onto the sidewalk
@@ -172,21 +175,15 @@ def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_
                 s.save()
             assert s.save(force=True) == path  # the explicit override writes it anyway
             assert not np.allclose(read_saved(m.output, ids[0]).objects[0].matrix, saved.objects[0].matrix)
-    finally:
-        s.close()
 
 
 def test_batch_records_that_a_force_saved_pose_breaks_a_rule(dataset, manifest):
     root, ids = dataset
     m = load_manifest(manifest)
-    s = PreviewSession(m, ids[0].name)
-    try:
-        s.load()
+    with _loaded(m, ids[0].name) as s:
         s.move(dy=4.0)  # off the road
         why = s.view.verdict.failures[0][2]
         s.save(force=True)  # Shift+S
-    finally:
-        s.close()
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     rec = json.loads(ids[0].path(m.output, "record").read_text())
     obj = rec["objects"][0]
