@@ -189,17 +189,22 @@ class PreviewWindow:
             self._say(line)
         self.dirty = True
 
+    def _refill(self, tex, size: tuple[int, int], components: int, pixels: np.ndarray):
+        """``tex`` with ``pixels`` written into it, or a new texture where it is missing or of
+        another size (the old one freed)."""
+        if tex is not None and tex.size == size:
+            tex.write(np.ascontiguousarray(pixels).tobytes())
+            return tex
+        if tex is not None:
+            self.gl.free(tex)
+        return self.gl.texture(size, components, pixels)
+
     def _upload_image(self) -> None:
         import moderngl
 
         img = np.ascontiguousarray(self.session.pass_image(self.pass_name))
         H, W = img.shape[:2]
-        if self.image_tex is None or self.image_tex.size != (W, H):
-            if self.image_tex is not None:
-                self.gl.free(self.image_tex)
-            self.image_tex = self.gl.texture((W, H), 3, img)
-        else:
-            self.image_tex.write(img.tobytes())
+        self.image_tex = self._refill(self.image_tex, (W, H), 3, img)
         fw, fh = self.glfw.get_framebuffer_size(self.window)
         f = moderngl.NEAREST if (fw, fh) == (W, H) else moderngl.LINEAR
         self.image_tex.filter = (f, f)
@@ -389,12 +394,7 @@ class PreviewWindow:
         ov = self.overlay()
         if self._overlay_key != (fw, fh, ov):
             rgba = self.overlay_pixels = ov.render(fw, fh)
-            if self.overlay_tex is None or self.overlay_tex.size != (fw, fh):
-                if self.overlay_tex is not None:
-                    self.gl.free(self.overlay_tex)
-                self.overlay_tex = self.gl.texture((fw, fh), 4, rgba)
-            else:
-                self.overlay_tex.write(rgba.tobytes())
+            self.overlay_tex = self._refill(self.overlay_tex, (fw, fh), 4, rgba)
             self._overlay_key = (fw, fh, ov)
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND)
