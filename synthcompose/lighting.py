@@ -23,9 +23,8 @@ scaled so that an up-facing, unshadowed surface receives 1 (luminance). Cues, on
   depth) differ. Their brightness ratio cancels the albedo and is fitted, with a robust loss,
   by the model over a grid of sun directions, sky shares and ground bounces; a pair may lie in a
   cast shadow instead (ambient only, at a small cost). Pairs are weighed so that no image region
-  (one near car) outweighs the rest, and by class (:data:`PAIR_CLASS_WEIGHT`: poles keep their
-  albedo round an edge better than cars, with lamps, and buildings, with windows and
-  neighbours; kerbs, too small for good normals, count least).
+  (one near car) outweighs the rest, and by class (:data:`PAIR_CLASS_WEIGHT`: building corners
+  count most, cars, with lamps and trims, less, kerbs, too small for good normals, least).
 * **shadows predicted from the geometry** (a weak tie-breaker): a height map of everything
   standing on the ground gives each ground sample's horizon towards each azimuth; a sun
   direction predicts which samples lie in shadow, where the visible scene can tell (paths that
@@ -654,15 +653,15 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
 
 
 PAIRS_PER_REGION = 6
-#: trust in each class's pairs: a pole keeps its albedo round the edge; a car's corner often has
-#: a lamp, a building's a window or another facade. Kerbs (road / sidewalk pairs) weigh little:
-#: a kerb's face is a few pixels high, so its normal from the depth is poor and its pairs pull
-#: the fit away from the sun (measured with benchmarks/eval_lighting.py: at full weight they
-#: outweighed the buildings and cars and halved the share of suns found within 20 degrees)
+#: trust in each class's pairs, measured with benchmarks/eval_lighting.py (sun within 20 degrees
+#: of the truth; the windows' colour change keeps them out of building pairs): building corners
+#: are the best cue; a car's faces often change paint or carry lamps, so cars weigh a quarter;
+#: kerbs (road / sidewalk pairs) weigh little: a kerb's face is a few pixels high, its normal from
+#: the depth is poor and its pairs pull the fit away from the sun (at full weight they halved the
+#: share of suns found within 20 degrees)
 PAIR_CLASS_WEIGHT = np.ones(256)
 PAIR_CLASS_WEIGHT[[7, 8]] = 0.05
-PAIR_CLASS_WEIGHT[[11, 12, 13, 14]] = 0.25
-PAIR_CLASS_WEIGHT[[26, 27, 28, 29, 30, 31]] = 0.5
+PAIR_CLASS_WEIGHT[[26, 27, 28, 29, 30, 31]] = 0.25
 _KS = np.array([0.85, 0.7, 0.55, 0.42, 0.3, 0.2])  # sky shares tried with a sun
 _GAMMAS = np.array([0.15, 0.3, 0.5])  # ground bounce ratios tried
 _SCALE = 0.15  # robust loss scale (log units)
