@@ -60,15 +60,21 @@ class PointCloud:
         return len(self.labels)
 
 
-def point_cloud(depth: np.ndarray, label_ids: np.ndarray, camera: Camera) -> PointCloud:
-    """Back-project every pixel with finite depth (pinhole model)."""
-    v, u = np.nonzero(np.isfinite(depth))
+def back_project(depth: np.ndarray, camera: Camera, v: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) float32 optical and vehicle-frame points of pixels (rows ``v``, columns ``u``)
+    with finite depth (pinhole model)."""
     z = depth[v, u]
     x = (u.astype(np.float32) - np.float32(camera.u0)) * z / np.float32(camera.fx)
     y = (v.astype(np.float32) - np.float32(camera.v0)) * z / np.float32(camera.fy)
     optical = np.stack([x, y, z], axis=1)
     m = camera.vehicle_from_optical.astype(np.float32)
-    vehicle = optical @ m[:3, :3].T + m[:3, 3]
+    return optical, optical @ m[:3, :3].T + m[:3, 3]
+
+
+def point_cloud(depth: np.ndarray, label_ids: np.ndarray, camera: Camera) -> PointCloud:
+    """Back-project every pixel with finite depth."""
+    v, u = np.nonzero(np.isfinite(depth))
+    optical, vehicle = back_project(depth, camera, v, u)
     return PointCloud(np.stack([v, u], axis=1).astype(np.int32), optical, vehicle, label_ids[v, u])
 
 
@@ -78,15 +84,14 @@ class Frame:
 
     depth     : (H, W) float32 metres along the optical axis, inf where unknown
     label_ids : (H, W) uint8 (or labels derived from geometry for unlabelled frames)
-    cloud     : the valid-depth pixels as 3D points
     The pixel grid doubles as a spatial index: every scene point inside a 3D box projects
-    inside the box's 2D projection, so :meth:`rect_points` finds them without a search.
+    inside the box's 2D projection, so :meth:`rect_points` finds them without a search; the
+    whole frame's point cloud (:attr:`cloud`) is built only when asked for (the preview).
     """
 
     camera: Camera
     depth: np.ndarray
     label_ids: np.ndarray
-    cloud: PointCloud
     labelled: bool = True
     cache: dict = field(default_factory=dict, repr=False)  # per-frame results of later stages
 
@@ -128,13 +133,13 @@ class Frame:
                 int(np.floor(uv[:, 0].min())) - pad, int(np.ceil(uv[:, 0].max())) + pad + 1)
 
     @cached_property
-    def ground_distance(self) -> np.ndarray:
-        """(N,) distance on the ground plane from the camera to each cloud point, metres."""
-        return np.hypot(self.cloud.vehicle[:, 0] - self.camera.x, self.cloud.vehicle[:, 1] - self.camera.y)
+    def cloud(self) -> PointCloud:
+        """The valid-depth pixels as 3D points."""
+        return point_cloud(self.depth, self.label_ids, self.camera)
 
 
 def make_frame(depth: np.ndarray, label_ids: np.ndarray, camera: Camera, labelled: bool = True) -> Frame:
-    return Frame(camera, depth, label_ids, point_cloud(depth, label_ids, camera), labelled)
+    return Frame(camera, depth, label_ids, labelled)
 
 
 def ground_labels_from_depth(depth: np.ndarray, camera: Camera, rng: np.random.Generator,

@@ -32,7 +32,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
-from .geometry import Frame
+from .geometry import Frame, back_project
 from .labels import label_id
 
 #: default allowed surfaces per Cityscapes class
@@ -404,23 +404,27 @@ def _hides_others(frame: Frame, m: np.ndarray, extents, others: Sequence[Placeme
 
 
 class _Candidates:
-    """Allowed-surface pixels of one frame in the distance range, sampled with weight depth^2
-    (near ground covers far more pixels than far ground: this spreads distances evenly)."""
+    """Allowed-surface pixels of one frame with known depth in the distance range, sampled with
+    weight depth^2 (near ground covers far more pixels than far ground: this spreads distances
+    evenly). Back-projected here, for those pixels only.
+
+    points (N, 3) vehicle frame, pixels (N, 2) (row, column)."""
 
     def __init__(self, frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> None:
-        cloud = frame.cloud
         lo, hi = distance
-        on = label_mask(allowed_ids)[cloud.labels]
-        self.allowed_mask = on
-        dist = frame.ground_distance
-        self.index = np.flatnonzero(on & (dist >= lo) & (dist <= hi))
-        self.cdf = np.cumsum(cloud.optical[self.index, 2].astype(np.float64) ** 2)
+        cam = frame.camera
+        v, u = np.nonzero(label_mask(allowed_ids)[frame.label_ids] & np.isfinite(frame.depth))
+        optical, vehicle = back_project(frame.depth, cam, v, u)
+        dist = np.hypot(vehicle[:, 0] - cam.x, vehicle[:, 1] - cam.y)
+        keep = (dist >= lo) & (dist <= hi)
+        self.points, self.pixels = vehicle[keep], np.column_stack([v[keep], u[keep]])
+        self.cdf = np.cumsum(optical[keep, 2].astype(np.float64) ** 2)
 
     def __len__(self) -> int:
-        return len(self.index)
+        return len(self.points)
 
     def draw(self, rng: np.random.Generator) -> int:
-        return int(self.index[np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right")])
+        return int(np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right"))
 
 
 class _TracedCounter(Counter):
@@ -681,8 +685,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
 
     for attempt in range(1, rules.max_attempts + 1):
         idx = candidates.draw(rng)
-        point = frame.cloud.vehicle[idx].astype(float)
-        row, col = int(frame.cloud.pixels[idx, 0]), int(frame.cloud.pixels[idx, 1])
+        point = candidates.points[idx].astype(float)
+        row, col = int(candidates.pixels[idx, 0]), int(candidates.pixels[idx, 1])
         if trace is not None:  # preview: where this candidate was
             rejections.point = point
         # 1. the candidate pixel must be ground-like, not a kerb face or a wall
