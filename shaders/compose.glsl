@@ -48,27 +48,43 @@ bool label_in_front(uint label) {
     return (u_front_labels[label >> 5u] & (1u << (label & 31u))) != 0u;
 }
 
+// What the compose needs at pixel q, fetched once: the photo R (linear), the passes, the real
+// depth and label, and whether the object and its plane are seen in front of the real scene.
+struct Pixel {
+    vec3 R, irpv, ir;
+    float a, sd;
+    uint label;
+    bool front, obj_vis, plane_vis;
+};
+
+Pixel fetch(ivec2 q) {
+    Pixel x;
+    x.R = srgb_to_linear(texelFetch(u_photo, q, 0).rgb);
+    x.irpv = texelFetch(u_irpv, q, 0).rgb;
+    x.ir = texelFetch(u_ir, q, 0).rgb;
+    x.a = texelFetch(u_alpha, q, 0).r;
+    vec2 plane = texelFetch(u_plane, q, 0).rg;
+    x.sd = texelFetch(u_scene_depth, q, 0).r;
+    x.label = texelFetch(u_labels, q, 0).r;
+    x.front = label_in_front(x.label);
+    x.obj_vis = x.a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(x.a, 1e-6), x.sd, x.front);
+    x.plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, x.sd, x.front);
+    return x;
+}
+
 // At pixel q: the visible object layer (premultiplied colour, coverage; zero where the real scene
 // is in front) and the background behind it (the photo with the inserted shadow). With these,
 // R' = C + (1 - a) B is the formula of main() below, rearranged.
 void layers(ivec2 q, out vec4 obj, out vec3 bg) {
-    vec3 R = srgb_to_linear(texelFetch(u_photo, q, 0).rgb);
-    vec3 irpv = texelFetch(u_irpv, q, 0).rgb;
-    vec3 ir = texelFetch(u_ir, q, 0).rgb;
-    float a = texelFetch(u_alpha, q, 0).r;
-    vec2 plane = texelFetch(u_plane, q, 0).rg;
-    float sd = texelFetch(u_scene_depth, q, 0).r;
-    bool front = label_in_front(texelFetch(u_labels, q, 0).r);
-    bool obj_vis = a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(a, 1e-6), sd, front);
-    bool plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, sd, front);
-    if (obj_vis) {
+    Pixel x = fetch(q);
+    if (x.obj_vis) {
         vec3 c = texelFetch(u_objc, q, 0).rgb;
-        obj = vec4(c, a);
+        obj = vec4(c, x.a);
         // Irpv = C + (1 - a) * shadowed plane; where the object covers all, B is not known
-        bg = a < 0.999 ? R + (irpv - c) / (1.0 - a) - ir : R;
+        bg = x.a < 0.999 ? x.R + (x.irpv - c) / (1.0 - x.a) - x.ir : x.R;
     } else {
         obj = vec4(0.0);
-        bg = R + ((a == 0.0 && plane_vis) ? irpv - ir : vec3(0.0));
+        bg = x.R + ((x.a == 0.0 && x.plane_vis) ? x.irpv - x.ir : vec3(0.0));
     }
 }
 
@@ -108,26 +124,17 @@ vec3 blurred(ivec2 p, out float cover) {
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
-    vec3 R = srgb_to_linear(texelFetch(u_photo, p, 0).rgb);
-    vec3 irpv = texelFetch(u_irpv, p, 0).rgb;
-    vec3 ir = texelFetch(u_ir, p, 0).rgb;
-    float a = texelFetch(u_alpha, p, 0).r;
-    vec2 plane = texelFetch(u_plane, p, 0).rg;
-    float sd = texelFetch(u_scene_depth, p, 0).r;
-    uint label = texelFetch(u_labels, p, 0).r;
-    bool front = label_in_front(label);
-
-    bool obj_vis = a > 0.0 && in_front(texelFetch(u_odepth, p, 0).r / max(a, 1e-6), sd, front);
-    bool plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, sd, front);
+    Pixel x = fetch(p);
     // Irpv and Ir are resolved over 4 samples with a zero background, so at an object's
     // edge Irpv = a * object + (1 - a) * plane and the formula blends exactly.
-    vec3 diff = irpv - ir;
-    if (!obj_vis) {
+    vec3 diff = x.irpv - x.ir;
+    float a = x.a;
+    if (!x.obj_vis) {
         // hidden (or absent) object: keep R, plus the shadow where the plane itself is seen
-        diff = (a == 0.0 && plane_vis) ? diff : vec3(0.0);
+        diff = (a == 0.0 && x.plane_vis) ? diff : vec3(0.0);
         a = 0.0;
     }
-    vec3 rgb = a * irpv + (1.0 - a) * (R + diff);
+    vec3 rgb = a * x.irpv + (1.0 - a) * (x.R + diff);
     float cover = a;
     if (u_blur_radius > 0) rgb = blurred(p, cover);
     vec3 srgb = linear_to_srgb(rgb);
@@ -140,13 +147,13 @@ void main() {
     out_rgb = vec4(srgb, 1.0);
 
     uint id = texelFetch(u_id, p, 0).r;
-    out_label = label;
+    out_label = x.label;
     out_instance = texelFetch(u_instances, p, 0).r;
     out_disparity = texelFetch(u_disparity, p, 0).r;
     out_visible = 0u;
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
-        if (in_front(od, sd, front)) {
+        if (in_front(od, x.sd, x.front)) {
             out_label = u_class[id];
             out_instance = u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
