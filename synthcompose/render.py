@@ -87,6 +87,11 @@ class RenderObject:
         reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, 4.0)
         return l / 2 + self.plane_margin + reach, w / 2 + self.plane_margin + reach
 
+    def plane_matrix(self, lighting: "Lighting") -> np.ndarray:
+        """(4, 4) vehicle <- unit square [-1, 1]^2 at z = 0: the pose of the ground plane."""
+        hx, hy = self.plane_half(lighting)
+        return self.vehicle_from_object @ np.diag([hx, hy, 1.0, 1.0])
+
     def corners(self, lighting: "Lighting") -> np.ndarray:
         """(16, 3) vehicle-frame corners of the object's box and of its plane."""
         l, w, h = self.model.extents
@@ -236,10 +241,11 @@ class Renderer:
                 else "sample"
         self.shading = shading
         ctx = gl.ctx
-        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth"),
-                         "fill": gl.program("fill")}
-        self._neighbours = gl.program("fill", NEIGHBOURS=1)
-        self._frame_vao = gl.own(ctx.vertex_array(self._neighbours, []))  # one full-frame triangle
+        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth")}
+        if shading == "pixel":  # fill.glsl's two programs (models get "fill" vertex arrays too)
+            self.programs["fill"] = gl.program("fill")
+            self._neighbours = gl.program("fill", NEIGHBOURS=1)
+            self._frame_vao = gl.own(ctx.vertex_array(self._neighbours, []))  # one full-frame triangle
         self._models: dict[str, _GpuModel] = {}
         # bound to sampler units that have nothing to show: every active sampler of a draw
         # must see a texture of its own kind (another pass may have left an integer one)
@@ -261,10 +267,10 @@ class Renderer:
             self.programs["lit"], [(self._plane_vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv",
                                     "in_color", "in_material")], index_buffer=self._plane_ibo,
             index_element_size=4))
-        self._plane_vao_fill = gl.own(ctx.vertex_array(
-            self.programs["fill"], [(self._plane_vbo, "3f 20x 4f 8x", "in_position", "in_color")],
-            index_buffer=self._plane_ibo,
-            index_element_size=4))
+        if shading == "pixel":
+            self._plane_vao_fill = gl.own(ctx.vertex_array(
+                self.programs["fill"], [(self._plane_vbo, "3f 20x 4f 8x", "in_position", "in_color")],
+                index_buffer=self._plane_ibo, index_element_size=4))
 
     def _gpu_model(self, model: Model) -> _GpuModel:
         if model.key not in self._models:
@@ -455,8 +461,7 @@ class Renderer:
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         fill["u_is_plane"].value = True
         for obj in objects:
-            hx, hy = obj.plane_half(lighting)
-            fill["u_model"].write(_gl(obj.vehicle_from_object @ np.diag([hx, hy, 1.0, 1.0])))
+            fill["u_model"].write(_gl(obj.plane_matrix(lighting)))
             self._plane_vao_fill.render(moderngl.TRIANGLES)
         fill["u_is_plane"].value = False
         for obj in objects:
@@ -476,9 +481,7 @@ class Renderer:
         prog["u_has_texture"].value = False
         prog["u_has_normal_map"].value = False
         for obj in objects:
-            hx, hy = obj.plane_half(lighting)
-            scale = np.diag([hx, hy, 1.0, 1.0])
-            prog["u_model"].write(_gl(obj.vehicle_from_object @ scale))
+            prog["u_model"].write(_gl(obj.plane_matrix(lighting)))
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             self._plane_vao.render(moderngl.TRIANGLES)
