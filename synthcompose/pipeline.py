@@ -206,9 +206,9 @@ class Pipeline:
                     # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
                     why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
                                      spec.allowed_surfaces, [p for _, p, _ in placed])
-                    check = {"ok": why is None} if why is None else \
-                        {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+                    check = {"ok": True}
                     if why is not None:
+                        check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
                         log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
                 cid = label_id(spec.class_name)
                 inst = new_instance_id(image_set.instance_ids, cid, taken)
