@@ -191,8 +191,7 @@ class OutputLock:
 def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], gl_device: int | None) -> Iterator[Outcome]:
     with Pipeline(manifest, weights, gl_device=gl_device) as pipe:
         log.info("GL: %s", pipe.gl.renderer_name)
-        for ident in todo:
-            yield pipe.process(ident)
+        yield from pipe.stream(todo)
 
 
 def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
@@ -200,7 +199,10 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
     """A spawned worker: its own GL context; takes image sets over its own pipe until None.
 
     Each worker has a pipe of its own (no queue shared between workers): a worker that dies
-    while sending can never leave a lock held that would stall the others.
+    while sending can never leave a lock held that would stall the others. The parent keeps
+    :data:`IN_FLIGHT` image sets queued on it, so that the next one is read while one is
+    computed and the last one written (:meth:`Pipeline.stream`); the worker says ("begin",
+    key) when it starts computing one, which is the one that fails if it dies.
     """
     # share the cores between workers: llvmpipe's and OpenCV's thread pools would
     # otherwise each take every core in every worker
@@ -215,14 +217,19 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
         return
     conn.send(("ready", pipe.gl.renderer_name))
     crash_on = os.environ.get(FAULT_CRASH_ENV)
-    while True:
-        ident = conn.recv()
-        if ident is None:
-            break
+
+    def begin(ident: ImageSetId) -> None:
+        conn.send(("begin", ident.key))
         if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
             os.kill(os.getpid(), signal.SIGSEGV)
-        conn.send(("done", pipe.process(ident)))
+
+    for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
+        conn.send(("done", outcome))
     pipe.close()
+
+
+#: image sets queued on each worker process: one computed, one read ahead
+IN_FLIGHT = 2
 
 
 #: thread pools of NumPy's BLAS: OpenBLAS threads spin while they wait, so with one pool of all
@@ -266,13 +273,18 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
         with _child_env(BLAS_THREAD_VARS, str(threads)):
             proc.start()
         child_end.close()
-        slots[wid] = {"proc": proc, "conn": parent_end, "current": None}
+        slots[wid] = {"proc": proc, "conn": parent_end, "queued": [], "computing": None, "closed": False}
 
     def feed(wid: int) -> None:
+        """Top the worker's queue up to IN_FLIGHT; None (stop when done) once nothing is left."""
         slot = slots[wid]
-        slot["current"] = pending.pop() if pending else None
         try:
-            slot["conn"].send(slot["current"])
+            while pending and not slot["closed"] and len(slot["queued"]) < IN_FLIGHT:
+                slot["queued"].append(pending.pop())
+                slot["conn"].send(slot["queued"][-1])
+            if not pending and not slot["closed"]:
+                slot["closed"] = True
+                slot["conn"].send(None)
         except (OSError, ValueError):
             pass  # died meanwhile: noticed through its sentinel
 
@@ -302,7 +314,10 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
                     if kind == "ready":
                         if wid == 0:
                             log.info("GL: %s", payload)
+                    elif kind == "begin":
+                        slot["computing"] = payload
                     else:
+                        slot["queued"] = [i for i in slot["queued"] if i.key != payload.key]
                         outstanding -= 1
                         yield payload
                     feed(wid)
@@ -311,14 +326,19 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
                     slot["proc"].join(timeout=1)
                     del slots[wid]
                     slot["conn"].close()
-                    if slot["current"] is not None:  # died on an image set: that one fails
-                        outstanding -= 1
-                        yield Outcome(slot["current"].key, "failed",
-                                      f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
+                    # the image set it was computing fails; the ones queued behind it go to others
+                    for ident in reversed(slot["queued"]):
+                        if ident.key == slot["computing"]:
+                            outstanding -= 1
+                            yield Outcome(ident.key, "failed",
+                                          f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
+                        else:
+                            pending.append(ident)
                     if pending and restarts < 10 * workers:
                         restarts += 1
-                        log.warning("worker %d died (exit code %s); starting a replacement", wid,
-                                    slot["proc"].exitcode)
+                        if slot["proc"].exitcode != 0:
+                            log.warning("worker %d died (exit code %s); starting a replacement", wid,
+                                        slot["proc"].exitcode)
                         start()
     finally:
         for slot in slots.values():

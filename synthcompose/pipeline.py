@@ -13,15 +13,17 @@ import zlib
 from collections import Counter
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
 from . import __version__
 from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
 from .colour import srgb_to_linear
-from .compose import CameraMatch, Composer, SceneLayers
-from .dataset import ImageSetId, read_image_set
+from .camera import Camera
+from .compose import CameraMatch, Composed, Composer, SceneLayers
+from .dataset import ImageSet, ImageSetId, read_image_set
 from .errors import InputError, SynthComposeError
 from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
@@ -100,6 +102,40 @@ def _saved_spec(m: Manifest, saved, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
+@dataclass(frozen=True, eq=False)
+class _Loaded:
+    """The read stage's output."""
+
+    image_set: ImageSet
+    camera_json: bytes
+
+
+@dataclass(frozen=True, eq=False)
+class _Computed:
+    """Geometry-to-compose's output: everything the write stage needs (no GL object)."""
+
+    ident: ImageSetId
+    record: dict  # the record so far; the write stage adds the objects and the status
+    records: list  # per placed object: result, spec, instance_id, model, check, plane_albedo, sun_visibility
+    saved: bool  # the poses came from a saved placement
+    composed: Composed
+    amodal: list  # amodal 2D box of each object (annotations)
+    rendered: np.ndarray  # rendered pixels of each object index (0: none)
+    camera: Camera
+    camera_json: bytes
+
+
+def _guarded(ident: ImageSetId, timings: dict[str, float], step: Callable):
+    """``step()``, or a ``failed`` outcome when it raises: bad input is reported, never raised."""
+    try:
+        return step()
+    except SynthComposeError as exc:
+        return Outcome(ident.key, "failed", str(exc), timings=timings)
+    except Exception as exc:  # a bug must not take the rest of the batch down
+        log.debug("internal error on %s", ident.key, exc_info=True)
+        return Outcome(ident.key, "failed", f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+
+
 @contextmanager
 def _timed(timings: dict[str, float], stage: str) -> Iterator[None]:
     t0 = time.perf_counter()
@@ -162,19 +198,64 @@ class Pipeline:
     def process(self, ident: ImageSetId) -> Outcome:
         """Run every stage for one image set; never raises for bad input (returns ``failed``)."""
         timings: dict[str, float] = {}
-        try:
-            return self._process(ident, timings)
-        except SynthComposeError as exc:
-            return Outcome(ident.key, "failed", str(exc), timings=timings)
-        except Exception as exc:  # a bug must not take the rest of the batch down
-            log.debug("internal error on %s", ident.key, exc_info=True)
-            return Outcome(ident.key, "failed", f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+        return _guarded(ident, timings, lambda: self._process(ident, timings))
+
+    def stream(self, idents: Iterable[ImageSetId], on_begin: Callable[[ImageSetId], None] | None = None
+               ) -> Iterator[Outcome]:
+        """Outcomes of ``idents``, in order, with the PNG coding off the critical path.
+
+        While one image set is computed (geometry to compose, on this thread: it owns the GL
+        context), the next one is read and the previous one written, each on a thread of its
+        own; OpenCV's codecs release the GIL, so on a machine with a spare core the batch is
+        bound by the slowest of the three instead of their sum. The outcome of an image set
+        comes after its files are all written. ``idents`` is pulled one ahead (from the reader
+        thread: it may block, e.g. on a worker's pipe); ``on_begin`` is called on this thread
+        before an image set's computation starts.
+        """
+        source = iter(idents)
+
+        def read_next() -> tuple[ImageSetId, dict, "_Loaded | Outcome"] | None:
+            ident = next(source, None)
+            if ident is None:
+                return None
+            timings: dict[str, float] = {}
+            return ident, timings, _guarded(ident, timings, lambda: self._read(ident, timings))
+
+        with ThreadPoolExecutor(1, "synthcompose-read") as reader, \
+                ThreadPoolExecutor(1, "synthcompose-write") as writer:
+            reading = reader.submit(read_next)
+            writing = None
+            while (item := reading.result()) is not None:
+                reading = reader.submit(read_next)
+                ident, timings, loaded = item
+                if on_begin is not None:
+                    on_begin(ident)
+                result = loaded if isinstance(loaded, Outcome) else \
+                    _guarded(ident, timings, lambda: self._compute(ident, loaded, timings))
+                if writing is not None:
+                    yield writing.result()
+                    writing = None
+                if isinstance(result, Outcome):
+                    yield result
+                else:
+                    writing = writer.submit(lambda r=result, t=timings, i=ident: _guarded(i, t, lambda: self._write(r, t)))
+            if writing is not None:
+                yield writing.result()
 
     def _process(self, ident: ImageSetId, timings: dict[str, float]) -> Outcome:
-        m = self.manifest
+        """Every stage of one image set on this thread (the preview's hooks stop it early)."""
+        result = self._compute(ident, self._read(ident, timings), timings)
+        return result if isinstance(result, Outcome) else self._write(result, timings)
+
+    def _read(self, ident: ImageSetId, timings: dict[str, float]) -> "_Loaded":
         with _timed(timings, "read"):
-            image_set = read_image_set(m.dataset, ident)
-            camera_json = ident.path(m.dataset, "camera").read_bytes()
+            return _Loaded(read_image_set(self.manifest.dataset, ident),
+                           ident.path(self.manifest.dataset, "camera").read_bytes())
+
+    def _compute(self, ident: ImageSetId, loaded: "_Loaded", timings: dict[str, float]) -> "_Computed | Outcome":
+        """Geometry to compose: what the writer needs, or the outcome when nothing is placed."""
+        m = self.manifest
+        image_set = loaded.image_set
         with _timed(timings, "geometry"):
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)
@@ -279,10 +360,16 @@ class Pipeline:
                 rendered = np.bincount(passes.read("id").ravel(), minlength=len(placed) + 1)
                 amodal = amodal_boxes(passes.read("id"), passes.roi, len(placed))  # annotations
                 self.renderer.release(passes)
+        return _Computed(ident, record, records, saved is not None, composed, amodal, rendered, cam,
+                         loaded.camera_json)
+
+    def _write(self, c: "_Computed", timings: dict[str, float]) -> Outcome:
+        """The image set's files, the record last (thread-safe: touches no GL and no state of self)."""
+        m, ident, record, composed, cam = self.manifest, c.ident, c.record, c.composed, c.camera
         with _timed(timings, "write"):
-            write_outputs(m.output, ident, composed, camera_json)
+            write_outputs(m.output, ident, composed, c.camera_json)
             opt_from_v = cam.optical_from_vehicle
-            for k, rec in enumerate(records, start=1):
+            for k, rec in enumerate(c.records, start=1):
                 pl, spec = rec["result"].placement, rec["spec"]
                 mask = composed.visible == k
                 ys, xs = np.nonzero(mask)
@@ -308,18 +395,18 @@ class Pipeline:
                     "pixel": list(pl.pixel),
                     "bbox_2d": bbox,
                     "visible_pixels": int(mask.sum()),
-                    "rendered_pixels": int(rendered[k]),
-                    "occluded_fraction": round(1.0 - int(mask.sum()) / max(int(rendered[k]), 1), 4),
+                    "rendered_pixels": int(c.rendered[k]),
+                    "occluded_fraction": round(1.0 - int(mask.sum()) / max(int(c.rendered[k]), 1), 4),
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
-                    "placement_source": "random" if saved is None else "saved",  # saved placements
+                    "placement_source": "saved" if c.saved else "random",  # saved placements
                     **({} if rec["check"] is None else {"placement_check": rec["check"]}),
                 })
             # --- annotations (annotations.py): amodal boxes and visible-mask RLE in the record,
             # gtFine polygons and gtBbox3d files; before the record, which is written last
-            annotate_objects(record, composed.visible, amodal, ident)
+            annotate_objects(record, composed.visible, c.amodal, ident)
             write_frame_annotations(m.output, m.dataset, ident, record, composed.visible, cam)
             # --- end annotations
             record["status"] = "done"
             write_record(m.output, ident, record)
-        return Outcome(ident.key, "done", None, len(placed), timings)
+        return Outcome(ident.key, "done", None, len(c.records), timings)
