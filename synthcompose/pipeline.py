@@ -2,7 +2,10 @@
 
 A :class:`Pipeline` holds one GL context, renderer and composer and processes image sets
 one after the other; :mod:`synthcompose.batch` decides which, in which process. A bad image
-set is reported (a ``failed`` outcome), never raised.
+set is reported (a ``failed`` outcome), never raised. Each image set goes through three
+steps, each with its own typed value: ``_prepare`` (read, geometry, the photo's light and
+camera -> :class:`_Prepared`), ``_compute`` (placement, render, compose -> :class:`_Computed`)
+and ``_write``; :meth:`Pipeline.stream` runs the three on three image sets at once.
 """
 from __future__ import annotations
 
@@ -29,7 +32,7 @@ from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
-from .lighting import camera_noise_seed, estimate_lighting, fixed_record
+from .lighting import LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
 from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, check_pose, place_object
@@ -103,11 +106,17 @@ def _saved_spec(m: Manifest, saved, k: int) -> ObjectSpec:
 
 
 @dataclass(frozen=True, eq=False)
-class _Loaded:
-    """The read stage's output."""
+class _Prepared:
+    """What depends on the photo alone (read, geometry, lighting): made ahead on a thread."""
 
     image_set: ImageSet
     camera_json: bytes
+    depth: np.ndarray  # (H, W) float32 metres, inf where unknown
+    frame: Frame
+    ground_plane: np.ndarray | None  # unlabelled image sets: the ground plane found from the depth
+    rng: np.random.Generator  # the image set's randomness, after the geometry's draws
+    estimate: LightEstimate | None  # lighting "estimate" mode
+    match: CameraMatch | None  # lighting "camera_match"
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,36 +211,37 @@ class Pipeline:
 
     def stream(self, idents: Iterable[ImageSetId], on_begin: Callable[[ImageSetId], None] | None = None
                ) -> Iterator[Outcome]:
-        """Outcomes of ``idents``, in order, with the PNG coding off the critical path.
+        """Outcomes of ``idents``, in order, with three image sets in the works at once.
 
-        While one image set is computed (geometry to compose, on this thread: it owns the GL
-        context), the next one is read and the previous one written, each on a thread of its
-        own; OpenCV's codecs release the GIL, so on a machine with a spare core the batch is
-        bound by the slowest of the three instead of their sum. The outcome of an image set
-        comes after its files are all written. ``idents`` is pulled one ahead (from the reader
-        thread: it may block, e.g. on a worker's pipe); ``on_begin`` is called on this thread
-        before an image set's computation starts.
+        While one image set is placed, rendered and composed (on this thread: it owns the GL
+        context), the next one is prepared (read, its geometry, light and camera measured:
+        what depends on the photo alone) and the previous one written, each on a thread of its
+        own. OpenCV's codecs and NumPy's array operations release the GIL, so where a core is
+        spare the batch is bound by the slowest of the three instead of their sum. The outcome
+        of an image set comes after its files are all written. ``idents`` is pulled one ahead
+        (by the preparing thread: it may block, e.g. on a worker's pipe); ``on_begin`` is
+        called on this thread before an image set's placement starts.
         """
         source = iter(idents)
 
-        def read_next() -> tuple[ImageSetId, dict, "_Loaded | Outcome"] | None:
+        def prepare_next() -> tuple[ImageSetId, dict, "_Prepared | Outcome"] | None:
             ident = next(source, None)
             if ident is None:
                 return None
             timings: dict[str, float] = {}
-            return ident, timings, _guarded(ident, timings, lambda: self._read(ident, timings))
+            return ident, timings, _guarded(ident, timings, lambda: self._prepare(ident, timings))
 
-        with ThreadPoolExecutor(1, "synthcompose-read") as reader, \
+        with ThreadPoolExecutor(1, "synthcompose-prepare") as preparer, \
                 ThreadPoolExecutor(1, "synthcompose-write") as writer:
-            reading = reader.submit(read_next)
+            preparing = preparer.submit(prepare_next)
             writing = None
-            while (item := reading.result()) is not None:
-                reading = reader.submit(read_next)
-                ident, timings, loaded = item
+            while (item := preparing.result()) is not None:
+                preparing = preparer.submit(prepare_next)
+                ident, timings, prepared = item
                 if on_begin is not None:
                     on_begin(ident)
-                result = loaded if isinstance(loaded, Outcome) else \
-                    _guarded(ident, timings, lambda: self._compute(ident, loaded, timings))
+                result = prepared if isinstance(prepared, Outcome) else \
+                    _guarded(ident, timings, lambda: self._compute(ident, prepared, timings))
                 if writing is not None:
                     yield writing.result()
                     writing = None
@@ -244,18 +254,15 @@ class Pipeline:
 
     def _process(self, ident: ImageSetId, timings: dict[str, float]) -> Outcome:
         """Every stage of one image set on this thread (the preview's hooks stop it early)."""
-        result = self._compute(ident, self._read(ident, timings), timings)
+        result = self._compute(ident, self._prepare(ident, timings), timings)
         return result if isinstance(result, Outcome) else self._write(result, timings)
 
-    def _read(self, ident: ImageSetId, timings: dict[str, float]) -> "_Loaded":
-        with _timed(timings, "read"):
-            return _Loaded(read_image_set(self.manifest.dataset, ident),
-                           ident.path(self.manifest.dataset, "camera").read_bytes())
-
-    def _compute(self, ident: ImageSetId, loaded: "_Loaded", timings: dict[str, float]) -> "_Computed | Outcome":
-        """Geometry to compose: what the writer needs, or the outcome when nothing is placed."""
+    def _prepare(self, ident: ImageSetId, timings: dict[str, float]) -> "_Prepared":
+        """Everything that depends on the photo alone: read, geometry, its light and camera."""
         m = self.manifest
-        image_set = loaded.image_set
+        with _timed(timings, "read"):
+            image_set = read_image_set(m.dataset, ident)
+            camera_json = ident.path(m.dataset, "camera").read_bytes()
         with _timed(timings, "geometry"):
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)
@@ -266,6 +273,20 @@ class Pipeline:
             else:  # no labels (test split): the drivable ground from the geometry alone
                 pseudo, ground_plane = ground_labels_from_depth(depth, cam, rng)
                 frame = make_frame(depth, pseudo, cam, labelled=False)
+        # --- lighting (lighting.py): the photo's own light, and its camera's blur and noise
+        with _timed(timings, "lighting"):
+            estimate = match = None
+            if m.lighting_mode == "estimate":
+                estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
+            if m.camera_match:
+                match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
+        # --- end lighting
+        return _Prepared(image_set, camera_json, depth, frame, ground_plane, rng, estimate, match)
+
+    def _compute(self, ident: ImageSetId, prep: "_Prepared", timings: dict[str, float]) -> "_Computed | Outcome":
+        """Placement, render and compose: what the writer needs, or the outcome when nothing is placed."""
+        m = self.manifest
+        image_set, depth, frame, rng, cam = prep.image_set, prep.depth, prep.frame, prep.rng, prep.image_set.camera
         placed: list[tuple[ObjectSpec, Placement, int]] = []
         records, failures = [], []
         taken: set[int] = set()
@@ -305,7 +326,8 @@ class Pipeline:
                                                                    "camera")},
             "labels": "gtFine" if image_set.labelled else {
                 "source": "none: road found from the disparity alone",
-                "ground_plane_z_axb": None if ground_plane is None else [round(float(v), 5) for v in ground_plane]},
+                "ground_plane_z_axb": None if prep.ground_plane is None else [round(float(v), 5)
+                                                                             for v in prep.ground_plane]},
             "lighting": fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
             else {"mode": "estimate"},  # lighting.py; the estimate replaces it below
             "objects": [],
@@ -325,16 +347,13 @@ class Pipeline:
             why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
             return Outcome(ident.key, "skipped", f"no valid placement ({why})", timings=timings)
 
-        # --- lighting (lighting.py): the photo's own light, and its camera's blur and noise
-        with _timed(timings, "lighting"):
-            lighting, estimate, match = m.lighting, None, None
-            if m.lighting_mode == "estimate":
-                estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
-                lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
-                record["lighting"] = estimate.to_dict() | {"renderer": lighting.to_dict()}
-            if m.camera_match:
-                match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
-                record["camera_match"] = match.to_dict()
+        # --- lighting (lighting.py): measured in _prepare
+        lighting, estimate, match = m.lighting, prep.estimate, prep.match
+        if estimate is not None:
+            lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
+            record["lighting"] = estimate.to_dict() | {"renderer": lighting.to_dict()}
+        if match is not None:
+            record["camera_match"] = match.to_dict()
         # --- end lighting
         with _timed(timings, "render"):
             objects = []
@@ -361,7 +380,7 @@ class Pipeline:
                 amodal = amodal_boxes(passes.read("id"), passes.roi, len(placed))  # annotations
                 self.renderer.release(passes)
         return _Computed(ident, record, records, saved is not None, composed, amodal, rendered, cam,
-                         loaded.camera_json)
+                         prep.camera_json)
 
     def _write(self, c: "_Computed", timings: dict[str, float]) -> Outcome:
         """The image set's files, the record last (thread-safe: touches no GL and no state of self)."""
