@@ -22,7 +22,6 @@ import os
 import signal
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
@@ -232,24 +231,6 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
 IN_FLIGHT = 2
 
 
-#: thread pools of NumPy's BLAS: OpenBLAS threads spin while they wait, so with one pool of all
-#: cores in every worker two workers ran 17 % slower than with a worker's share each
-BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-@contextmanager
-def _child_env(names: tuple[str, ...], value: str) -> Iterator[None]:
-    """Environment for the processes started inside (a spawned process imports NumPy afresh and
-    reads it then); the user's own settings win, and this process's environment is restored."""
-    added = [n for n in names if n not in os.environ]
-    os.environ.update({n: value for n in added})
-    try:
-        yield
-    finally:
-        for n in added:
-            os.environ.pop(n, None)
-
-
 def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
                   gpus: int) -> Iterator[Outcome]:
     """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
@@ -270,8 +251,7 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
         device = (wid % gpus) if gpus else None
         proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, child_end, wid, threads),
                            name=f"synthcompose-worker-{wid}", daemon=True)
-        with _child_env(BLAS_THREAD_VARS, str(threads)):
-            proc.start()
+        proc.start()
         child_end.close()
         slots[wid] = {"proc": proc, "conn": parent_end, "queued": [], "computing": None, "closed": False}
 

@@ -198,6 +198,8 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     """Pipeline.stream (read ahead, write behind, on threads) gives the outcomes in order and
     the same bytes as processing each image set alone; a read failure and a write failure
     fail only their own image set."""
+    from threadpoolctl import threadpool_info
+
     from synthcompose import pipeline as pipeline_module
     from synthcompose.manifest import load_manifest
     from synthcompose.pipeline import Pipeline
@@ -205,11 +207,16 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=9)
     _break(root, ids[1], "missing")
-    outs = {}
+    outs, blas = {}, []
+
+    def begin(ident) -> None:  # NumPy's BLAS on one thread while streaming
+        blas.extend(pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas")
+
     for way in ("alone", "stream"):
         manifest = load_manifest(write_manifest(tmp_path / f"{way}.json", root, tmp_path / way))
         with Pipeline(manifest) as pipe:
-            outs[way] = [pipe.process(i) for i in ids] if way == "alone" else list(pipe.stream(ids))
+            outs[way] = [pipe.process(i) for i in ids] if way == "alone" else list(pipe.stream(ids, on_begin=begin))
+    assert blas and set(blas) == {1}
     assert [o.key for o in outs["stream"]] == [i.key for i in ids]
     assert [o.status for o in outs["stream"]] == [o.status for o in outs["alone"]]
     assert outs["stream"][1].status == "failed" and "file is missing" in outs["stream"][1].reason

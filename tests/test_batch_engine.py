@@ -104,19 +104,3 @@ def test_kill_9_then_resume_gives_the_uninterrupted_result(data, tmp_path, delay
                 assert cv2.imread(str(p), cv2.IMREAD_UNCHANGED) is not None, p
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     assert _files(out, ids) == _files(ref, ids)
-
-
-def test_workers_get_their_share_of_blas_threads_and_the_parent_keeps_its_environment(monkeypatch):
-    import os
-    import subprocess
-    import sys
-
-    from synthcompose.batch import BLAS_THREAD_VARS, _child_env
-
-    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
-    monkeypatch.setenv("OMP_NUM_THREADS", "3")  # the user's own setting wins
-    with _child_env(BLAS_THREAD_VARS, "1"):
-        seen = subprocess.run([sys.executable, "-c", "import os; print(os.environ['OPENBLAS_NUM_THREADS'], "
-                               "os.environ['OMP_NUM_THREADS'])"], capture_output=True, text=True, check=True).stdout
-    assert seen.split() == ["1", "3"]
-    assert "OPENBLAS_NUM_THREADS" not in os.environ and os.environ["OMP_NUM_THREADS"] == "3"
