@@ -192,36 +192,62 @@ def _mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
 
 
 class _GpuModel:
-    """Vertex arrays of one model for each program that draws it.
+    """One model on the GPU: all its parts in one vertex and one index buffer, a vertex array
+    for each program that draws it.
 
-    A part with a normal map also gets its tangents, in a buffer of their own (``in_tangent``);
-    the others keep the one interleaved buffer and leave that attribute unbound.
+    The passes that need no per-part state (shadow maps, ids, the sample fill) draw the whole
+    model at once; the lit pass draws :attr:`ranges`, one per run of consecutive parts with
+    the same maps (textures): parts without maps run together, in the file's order, so the
+    pixels are those of a draw per part, with a handful of draws instead of one per part
+    (llvmpipe pays a fixed cost per draw). Tangents (``in_tangent``, for normal maps) get a
+    buffer of their own, zeros for parts without a map, only when some part has one.
     """
 
     def __init__(self, gl: GLContext, model: Model, programs: dict[str, moderngl.Program]) -> None:
-        self.parts = []
+        datas, indices, tangents, maps_of = [], [], [], []
+        first = 0
+        has_tangents = any(p.normal_texture is not None and p.tangents is not None for p in model.parts)
         for part in model.parts:
-            data = np.concatenate([part.positions, part.normals, part.uvs, part.colors, part.material],
-                                  axis=1).astype(np.float32)
-            vbo = gl.own(gl.ctx.buffer(data.tobytes()))
-            ibo = gl.own(gl.ctx.buffer(part.indices.astype(np.uint32).tobytes()))
+            datas.append(np.concatenate([part.positions, part.normals, part.uvs, part.colors, part.material],
+                                        axis=1).astype(np.float32))
+            indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
+            first += len(part.positions)
             maps = _GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
-            tbo = None
             if part.normal_texture is not None and part.tangents is not None:
                 maps = replace(maps, normal=_mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
-                tbo = gl.own(gl.ctx.buffer(np.ascontiguousarray(part.tangents, np.float32).tobytes()))
-            vaos = {}
-            for name, prog in programs.items():
-                if name == "lit":
-                    fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
-                    if tbo is not None:
-                        fmt.append((tbo, "4f", "in_tangent"))
-                elif name == "fill":
-                    fmt = [(vbo, "3f 20x 4f 8x", "in_position", "in_color")]
-                else:
-                    fmt = [(vbo, "3f 44x", "in_position")]
-                vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
-            self.parts.append((vaos, maps))
+            if has_tangents:
+                tangents.append(np.zeros((len(part.positions), 4), np.float32) if maps.normal is None
+                                else np.asarray(part.tangents, np.float32))
+            maps_of.append(maps)
+        vbo = gl.own(gl.ctx.buffer(np.concatenate(datas).tobytes()))
+        ibo = gl.own(gl.ctx.buffer(np.concatenate(indices).tobytes()))
+        tbo = gl.own(gl.ctx.buffer(np.concatenate(tangents).tobytes())) if has_tangents else None
+        self.vaos: dict[str, moderngl.VertexArray] = {}
+        for name, prog in programs.items():
+            if name == "lit":
+                fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
+                if tbo is not None:
+                    fmt.append((tbo, "4f", "in_tangent"))
+            elif name == "fill":
+                fmt = [(vbo, "3f 20x 4f 8x", "in_position", "in_color")]
+            else:
+                fmt = [(vbo, "3f 44x", "in_position")]
+            self.vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
+        #: (first index, index count, maps) of each lit draw
+        self.ranges: list[tuple[int, int, _GpuMaps]] = []
+        start = 0
+        for idx, maps in zip(indices, maps_of):
+            plain = maps.base is None and maps.normal is None
+            if self.ranges and plain and self.ranges[-1][2] == maps:
+                f, n, _ = self.ranges[-1]
+                self.ranges[-1] = (f, n + len(idx), maps)
+            else:
+                self.ranges.append((start, len(idx), maps))
+            start += len(idx)
+
+    def draw(self, name: str) -> None:
+        """The whole model with program ``name`` (its uniforms set)."""
+        self.vaos[name].render(moderngl.TRIANGLES)
 
 
 class Renderer:
@@ -300,8 +326,7 @@ class Renderer:
             prog["u_light"].write(_gl(light))
             for obj in objects:
                 prog["u_model"].write(_gl(obj.vehicle_from_object))
-                for vaos, _ in self._gpu_model(obj.model).parts:
-                    vaos["depth"].render(moderngl.TRIANGLES)
+                self._gpu_model(obj.model).draw("depth")
 
     # ----------------------------------------------------------------- passes
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
@@ -410,8 +435,7 @@ class Renderer:
         for k, obj in enumerate(objects, start=1):
             idp["u_model"].write(_gl(obj.vehicle_from_object))
             idp["u_id"].value = k
-            for vaos, _ in self._gpu_model(obj.model).parts:
-                vaos["id"].render(moderngl.TRIANGLES)
+            self._gpu_model(obj.model).draw("id")
         for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
             gl.free(obj)
         return RenderPasses(roi, cam, tex, gl)
@@ -466,8 +490,7 @@ class Renderer:
         fill["u_is_plane"].value = False
         for obj in objects:
             fill["u_model"].write(_gl(obj.vehicle_from_object))
-            for vaos, _ in self._gpu_model(obj.model).parts:
-                vaos["fill"].render(moderngl.TRIANGLES)
+            self._gpu_model(obj.model).draw("fill")
         ctx.copy_framebuffer(resolve, ms_fbo)
         for obj in (objects_fbo, planes_fbo, others_fbo, centre_depth, *centre, object_col, object_key, plane_col,
                     other_col, other_key):
@@ -492,7 +515,8 @@ class Renderer:
         for obj in objects:
             prog["u_model"].write(_gl(obj.vehicle_from_object))
             prog["u_sun_scale"].value = float(obj.sun_visibility)
-            for vaos, maps in self._gpu_model(obj.model).parts:
+            gpu = self._gpu_model(obj.model)
+            for first, count, maps in gpu.ranges:
                 prog["u_has_texture"].value = maps.base is not None
                 if maps.base is not None:
                     maps.base.use(0)
@@ -500,7 +524,7 @@ class Renderer:
                 if maps.normal is not None:
                     maps.normal.use(6)
                     prog["u_normal_scale"].value = maps.normal_scale
-                vaos["lit"].render(moderngl.TRIANGLES)
+                gpu.vaos["lit"].render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def _environment(self, photo: np.ndarray) -> moderngl.Texture:
         """The photo at half size as a mipmapped sRGB texture (reads linear): what glossy paint
