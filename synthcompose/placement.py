@@ -406,25 +406,36 @@ def _hides_others(frame: Frame, m: np.ndarray, extents, others: Sequence[Placeme
 class _Candidates:
     """Allowed-surface pixels of one frame with known depth in the distance range, sampled with
     weight depth^2 (near ground covers far more pixels than far ground: this spreads distances
-    evenly). Back-projected here, for those pixels only.
+    evenly). Only the ground distance of each pixel is worked out here (an image's road is
+    most of a million pixels); a drawn pixel is back-projected when drawn.
 
-    points (N, 3) vehicle frame, pixels (N, 2) (row, column)."""
+    rows, cols (N,) the pixels; cdf (N,) cumulative weights."""
 
     def __init__(self, frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> None:
         lo, hi = distance
-        cam = frame.camera
+        cam = self.camera = frame.camera
+        self.depth = frame.depth
         v, u = np.nonzero(label_mask(allowed_ids)[frame.label_ids] & np.isfinite(frame.depth))
-        optical, vehicle = back_project(frame.depth, cam, v, u)
-        dist = np.hypot(vehicle[:, 0] - cam.x, vehicle[:, 1] - cam.y)
+        z = frame.depth[v, u]
+        x = (u.astype(np.float32) - np.float32(cam.u0)) * z / np.float32(cam.fx)
+        y = (v.astype(np.float32) - np.float32(cam.v0)) * z / np.float32(cam.fy)
+        m = cam.vehicle_from_optical.astype(np.float32)
+        ground_x = x * m[0, 0] + y * m[0, 1] + z * m[0, 2] + (m[0, 3] - np.float32(cam.x))
+        ground_y = x * m[1, 0] + y * m[1, 1] + z * m[1, 2] + (m[1, 3] - np.float32(cam.y))
+        dist = np.hypot(ground_x, ground_y)
         keep = (dist >= lo) & (dist <= hi)
-        self.points, self.pixels = vehicle[keep], np.column_stack([v[keep], u[keep]])
-        self.cdf = np.cumsum(optical[keep, 2].astype(np.float64) ** 2)
+        self.rows, self.cols = v[keep], u[keep]
+        self.cdf = np.cumsum(np.square(z[keep], dtype=np.float64))
 
     def __len__(self) -> int:
-        return len(self.points)
+        return len(self.rows)
 
     def draw(self, rng: np.random.Generator) -> int:
         return int(np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right"))
+
+    def point(self, idx: int) -> np.ndarray:
+        """(3,) vehicle-frame point of candidate ``idx``."""
+        return back_project(self.depth, self.camera, self.rows[idx:idx + 1], self.cols[idx:idx + 1])[1][0]
 
 
 class _TracedCounter(Counter):
@@ -685,8 +696,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
 
     for attempt in range(1, rules.max_attempts + 1):
         idx = candidates.draw(rng)
-        point = candidates.points[idx].astype(float)
-        row, col = int(candidates.pixels[idx, 0]), int(candidates.pixels[idx, 1])
+        point = candidates.point(idx).astype(float)
+        row, col = int(candidates.rows[idx]), int(candidates.cols[idx])
         if trace is not None:  # preview: where this candidate was
             rejections.point = point
         # 1. the candidate pixel must be ground-like, not a kerb face or a wall
