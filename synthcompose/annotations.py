@@ -147,7 +147,12 @@ def mask_polygons(mask: np.ndarray, min_part_pixels: int = MIN_PART_PIXELS) -> l
     A part one pixel thick may trace to two vertices: the last is repeated so every polygon
     has at least three (drawable by PIL and cv2). Ordered by the parts' top-left vertex.
     """
-    solid = remove_holes(mask)
+    x0, y0, w, h = cv2.boundingRect(np.asarray(mask, np.uint8))
+    if w == 0:
+        return []
+    # the work in the mask's bounding box (polygons, holes and parts are the same: what lies
+    # outside it is background joined to the image border), in full-frame coordinates
+    solid = remove_holes(mask[y0:y0 + h, x0:x0 + w])
     n, labels, stats, _ = cv2.connectedComponentsWithStats(solid, connectivity=8)
     small = np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_part_pixels)
     small = small[small != 0]  # label 0 is the background
@@ -156,7 +161,7 @@ def mask_polygons(mask: np.ndarray, min_part_pixels: int = MIN_PART_PIXELS) -> l
     contours, _ = cv2.findContours(solid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     polys = []
     for c in contours:
-        pts = [[int(x), int(y)] for x, y in c.reshape(-1, 2)]
+        pts = [[int(x) + x0, int(y) + y0] for x, y in c.reshape(-1, 2)]
         while len(pts) < 3:
             pts.append(list(pts[-1]))
         polys.append(pts)
