@@ -74,10 +74,10 @@ def _describe(img: np.ndarray) -> str:
 
 def encode_png(img: np.ndarray) -> bytes:
     """Encode ``(H, W)`` uint8/uint16, ``(H, W, 3)`` RGB or ``(H, W, 4)`` RGBA uint8 as PNG."""
-    if img.ndim == 3:
-        order = [2, 1, 0] if img.shape[2] == 3 else [2, 1, 0, 3]
-        img = img[..., order]
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(img), [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION])
+    img = np.ascontiguousarray(img)
+    if img.ndim == 3:  # OpenCV writes BGR(A)
+        img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR if img.shape[2] == 3 else cv2.COLOR_RGBA2BGRA)
+    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION])
     if not ok:  # pragma: no cover - OpenCV only fails on unsupported dtypes
         raise ValueError(f"cannot encode array of {img.dtype} {img.shape} as PNG")
     return buf.tobytes()

@@ -1,6 +1,7 @@
 """Cityscapes label table, taken from cityscapesScripts (the authority), as lookup arrays."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from cityscapesscripts.helpers.labels import id2label, labels, name2label
 
@@ -16,6 +17,8 @@ for _label in labels:
         COLOR_LUT[_label.id] = _label.color
         HAS_INSTANCES[_label.id] = _label.hasInstances
         KNOWN_IDS[_label.id] = True
+#: (256, 1, 4) uint8: COLOR_LUT with alpha 255, as cv2.LUT takes it (colorize)
+_RGBA_LUT = np.concatenate([COLOR_LUT, np.full((256, 1), 255, np.uint8)], axis=1)[:, None, :].copy()
 
 #: Instance ids are class_id * INSTANCE_FACTOR + k (cityscapesScripts json2instanceImg).
 INSTANCE_FACTOR = 1000
@@ -36,7 +39,5 @@ def label_name(label: int) -> str:
 
 def colorize(label_ids: np.ndarray) -> np.ndarray:
     """(H, W) uint8 label ids -> (H, W, 4) uint8 RGBA Cityscapes colour image (gtFine_color)."""
-    rgba = np.empty(label_ids.shape + (4,), np.uint8)
-    rgba[..., :3] = COLOR_LUT[label_ids]
-    rgba[..., 3] = 255
-    return rgba
+    grey4 = cv2.cvtColor(np.ascontiguousarray(label_ids, np.uint8), cv2.COLOR_GRAY2RGBA)  # alpha 255
+    return cv2.LUT(grey4, _RGBA_LUT)  # alpha 255 -> 255
