@@ -59,7 +59,7 @@ def read_png(path: str | Path, kind: PngKind) -> np.ndarray:
     if kind == "rgb8":
         if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
             raise InputError(path, f"expected an 8-bit RGB image, found {_describe(img)}")
-        return np.ascontiguousarray(img[..., 2::-1])
+        return cv2.cvtColor(img, cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGB)
     want = np.uint8 if kind == "gray8" else np.uint16
     if img.ndim != 2 or img.dtype != want:
         bits = 8 if kind == "gray8" else 16
