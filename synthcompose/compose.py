@@ -89,14 +89,16 @@ def estimate_noise(rgb: np.ndarray) -> np.ndarray:
     lo, hi = np.quantile(grad[::4, ::4], [0.5, 0.8])
     flat = grad <= lo
     flat &= cv2.dilate((grad > hi).astype(np.uint8), np.ones((5, 5), np.uint8)) == 0
-    channels = [rgb[..., c] for c in range(3)]
-    flat &= (np.minimum.reduce(channels) > 4) & (np.maximum.reduce(channels) < 251)
+    channels = cv2.split(np.ascontiguousarray(rgb))
+    flat &= (cv2.min(cv2.min(channels[0], channels[1]), channels[2]) > 4) & \
+        (cv2.max(cv2.max(channels[0], channels[1]), channels[2]) < 251)
     flat[:2], flat[-2:], flat[:, :2], flat[:, -2:] = False, False, False, False
     if flat.sum() < 500:
         flat[2:-2, 2:-2] = True
     out = np.empty(3)
     for c in range(3):
-        r = cv2.filter2D(channels[c].astype(np.float32), cv2.CV_32F, _IMMERKAER, borderType=cv2.BORDER_REFLECT)
+        # integer mask on 8-bit data: exact in 16 bits (|r| <= 16 * 255)
+        r = cv2.filter2D(channels[c], cv2.CV_16S, _IMMERKAER, borderType=cv2.BORDER_REFLECT)
         out[c] = 1.4826 * _grouped_median(np.abs(r[flat])) / 6.0
     return out
 
@@ -110,14 +112,16 @@ def estimate_blur(rgb: np.ndarray, reblur: float = 1.0) -> float:
     grey = grey8.astype(np.float32)
     re = cv2.GaussianBlur(grey, (0, 0), reblur)
 
-    def grad(a: np.ndarray) -> np.ndarray:
-        return cv2.magnitude(cv2.Sobel(a, cv2.CV_32F, 1, 0), cv2.Sobel(a, cv2.CV_32F, 0, 1)) / 8.0
-
     edges = cv2.Canny(grey8, 40, 100) > 0
     edges[:3], edges[-3:], edges[:, :3], edges[:, -3:] = False, False, False, False
     if edges.sum() < 50:
         return float("nan")
-    g, gr = grad(grey)[edges], grad(re)[edges]
+
+    def grad(a: np.ndarray) -> np.ndarray:  # gradient magnitude at the edge pixels
+        gx, gy = cv2.Sobel(a, cv2.CV_32F, 1, 0)[edges], cv2.Sobel(a, cv2.CV_32F, 0, 1)[edges]
+        return np.sqrt(gx * gx + gy * gy) / np.float32(8.0)
+
+    g, gr = grad(grey), grad(re)
     strong = g >= max(8.0, float(np.quantile(g, 0.6)))
     ratio = g[strong] / np.maximum(gr[strong], 1e-6)
     ratio = ratio[ratio > 1.01]
