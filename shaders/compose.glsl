@@ -75,8 +75,7 @@ Pixel fetch(ivec2 q) {
 // At pixel q: the visible object layer (premultiplied colour, coverage; zero where the real scene
 // is in front) and the background behind it (the photo with the inserted shadow). With these,
 // R' = C + (1 - a) B is the formula of main() below, rearranged.
-void layers(ivec2 q, out vec4 obj, out vec3 bg) {
-    Pixel x = fetch(q);
+void layers_of(Pixel x, ivec2 q, out vec4 obj, out vec3 bg) {
     if (x.obj_vis) {
         vec3 c = texelFetch(u_objc, q, 0).rgb;
         obj = vec4(c, x.a);
@@ -88,12 +87,15 @@ void layers(ivec2 q, out vec4 obj, out vec3 bg) {
     }
 }
 
+void layers(ivec2 q, out vec4 obj, out vec3 bg) { layers_of(fetch(q), q, obj, bg); }
+
 // The composite with the object layer blurred by a Gaussian of u_blur_sigma: C_b + (1 - a_b) B,
 // B sharp (it is the photo); under a fully covered pixel B comes from the uncovered neighbours.
-vec3 blurred(ivec2 p, out float cover) {
+// x: what fetch(p) gave.
+vec3 blurred(ivec2 p, Pixel x, out float cover) {
     vec4 obj0;
     vec3 bg0;
-    layers(p, obj0, bg0);
+    layers_of(x, p, obj0, bg0);
     bool covered = obj0.a >= 0.999;
     ivec2 hi = textureSize(u_photo, 0) - 1;
     vec4 acc = vec4(0.0);
@@ -108,7 +110,7 @@ vec3 blurred(ivec2 p, out float cover) {
             if (!covered && texelFetch(u_alpha, q, 0).r == 0.0) continue;  // nothing to add
             vec4 obj;
             vec3 bg;
-            layers(q, obj, bg);
+            if (q == p) layers_of(x, q, obj, bg); else layers(q, obj, bg);
             acc += w * obj;
             if (covered && obj.a < 0.999) {
                 bg_acc += w * (1.0 - obj.a) * bg;
@@ -136,7 +138,7 @@ void main() {
     }
     vec3 rgb = a * x.irpv + (1.0 - a) * (x.R + diff);
     float cover = a;
-    if (u_blur_radius > 0) rgb = blurred(p, cover);
+    if (u_blur_radius > 0) rgb = blurred(p, x, cover);
     vec3 srgb = linear_to_srgb(rgb);
     if (cover > 0.0 && any(greaterThan(u_noise_sigma, vec3(0.0)))) {
         // the photo's noise where the object replaces it: what the background keeps of its own
