@@ -34,11 +34,8 @@ uniform sampler2D u_noise;         // standard normal noise per channel (seeded,
 uniform vec3 u_noise_sigma;        // the photo's noise, sRGB [0, 1] units; 0: no noise
 uniform float u_blur_sigma;        // Gaussian blur of the object layer, pixels
 uniform int u_blur_radius;         // its half width in pixels; 0: no blur
-layout(location = 0) out vec4 out_rgb;
-layout(location = 1) out uint out_label;
-layout(location = 2) out uint out_instance;
-layout(location = 3) out uint out_disparity;
-layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
+uniform sampler2D u_layer_obj;     // layers() of every pixel (the LAYERS pass), when blurring
+uniform sampler2D u_layer_bg;
 
 bool in_front(float obj_depth, float scene_depth, bool label_front) {
     return !label_front && obj_depth < scene_depth + u_tol_abs + u_tol_rel * obj_depth;
@@ -75,7 +72,8 @@ Pixel fetch(ivec2 q) {
 // At pixel q: the visible object layer (premultiplied colour, coverage; zero where the real scene
 // is in front) and the background behind it (the photo with the inserted shadow). With these,
 // R' = C + (1 - a) B is the formula of main() below, rearranged.
-void layers_of(Pixel x, ivec2 q, out vec4 obj, out vec3 bg) {
+void layers(ivec2 q, out vec4 obj, out vec3 bg) {
+    Pixel x = fetch(q);
     if (x.obj_vis) {
         vec3 c = texelFetch(u_objc, q, 0).rgb;
         obj = vec4(c, x.a);
@@ -87,15 +85,13 @@ void layers_of(Pixel x, ivec2 q, out vec4 obj, out vec3 bg) {
     }
 }
 
-void layers(ivec2 q, out vec4 obj, out vec3 bg) { layers_of(fetch(q), q, obj, bg); }
-
 // The composite with the object layer blurred by a Gaussian of u_blur_sigma: C_b + (1 - a_b) B,
 // B sharp (it is the photo); under a fully covered pixel B comes from the uncovered neighbours.
-// x: what fetch(p) gave.
-vec3 blurred(ivec2 p, Pixel x, out float cover) {
-    vec4 obj0;
-    vec3 bg0;
-    layers_of(x, p, obj0, bg0);
+// The layers of every pixel come from the LAYERS pass (u_layer_obj, u_layer_bg): worked out
+// once per pixel instead of once per pixel and tap.
+vec3 blurred(ivec2 p, out float cover) {
+    vec4 obj0 = texelFetch(u_layer_obj, p, 0);
+    vec3 bg0 = texelFetch(u_layer_bg, p, 0).rgb;
     bool covered = obj0.a >= 0.999;
     ivec2 hi = textureSize(u_photo, 0) - 1;
     vec4 acc = vec4(0.0);
@@ -108,9 +104,8 @@ vec3 blurred(ivec2 p, Pixel x, out float cover) {
             float w = exp(k * float(dx * dx + dy * dy));
             wsum += w;
             if (!covered && texelFetch(u_alpha, q, 0).r == 0.0) continue;  // nothing to add
-            vec4 obj;
-            vec3 bg;
-            if (q == p) layers_of(x, q, obj, bg); else layers(q, obj, bg);
+            vec4 obj = texelFetch(u_layer_obj, q, 0);
+            vec3 bg = texelFetch(u_layer_bg, q, 0).rgb;
             acc += w * obj;
             if (covered && obj.a < 0.999) {
                 bg_acc += w * (1.0 - obj.a) * bg;
@@ -123,6 +118,24 @@ vec3 blurred(ivec2 p, Pixel x, out float cover) {
     cover = acc.a;
     return acc.rgb + (1.0 - acc.a) * B;
 }
+
+#if defined LAYERS
+// The blur's first pass: each pixel's layers, for blurred() to read.
+layout(location = 0) out vec4 out_obj;
+layout(location = 1) out vec4 out_bg;
+void main() {
+    vec4 obj;
+    vec3 bg;
+    layers(ivec2(gl_FragCoord.xy), obj, bg);
+    out_obj = obj;
+    out_bg = vec4(bg, 1.0);
+}
+#else
+layout(location = 0) out vec4 out_rgb;
+layout(location = 1) out uint out_label;
+layout(location = 2) out uint out_instance;
+layout(location = 3) out uint out_disparity;
+layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
@@ -138,7 +151,7 @@ void main() {
     }
     vec3 rgb = a * x.irpv + (1.0 - a) * (x.R + diff);
     float cover = a;
-    if (u_blur_radius > 0) rgb = blurred(p, x, cover);
+    if (u_blur_radius > 0) rgb = blurred(p, cover);
     vec3 srgb = linear_to_srgb(rgb);
     if (cover > 0.0 && any(greaterThan(u_noise_sigma, vec3(0.0)))) {
         // the photo's noise where the object replaces it: what the background keeps of its own
@@ -163,4 +176,5 @@ void main() {
         }
     }
 }
+#endif  // LAYERS
 #endif

@@ -171,12 +171,16 @@ class Composer:
         self.gl = gl.activate()
         self.prog = gl.program("compose")
         self.vao = gl.own(gl.ctx.vertex_array(self.prog, []))
+        # the blur's first pass (compose.glsl, LAYERS): each pixel's object and background layers
+        self.layers_prog = gl.program("compose", LAYERS=1)
+        self.layers_vao = gl.own(gl.ctx.vertex_array(self.layers_prog, []))
         mask = np.zeros(8, np.uint32)
         for label in FRONT_LABELS:
             mask[label >> 5] |= np.uint32(1 << (label & 31))
-        self.prog["u_front_labels"].write(mask.tobytes())
-        self.prog["u_tol_abs"].value = TOL_ABS
-        self.prog["u_tol_rel"].value = TOL_REL
+        for prog in (self.prog, self.layers_prog):
+            prog["u_front_labels"].write(mask.tobytes())
+            prog["u_tol_abs"].value = TOL_ABS
+            prog["u_tol_rel"].value = TOL_REL
         self._zero = gl.texture((1, 1), 4, np.zeros((1, 1, 4), np.float32), dtype="f4")  # unused samplers
 
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
@@ -210,9 +214,22 @@ class Composer:
                 inputs[f"u_{name}"] = passes.textures[name]
         inputs.setdefault("u_objc", self._zero)
         inputs.setdefault("u_noise", self._zero)
+        inputs["u_layer_obj"] = inputs["u_layer_bg"] = self._zero
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
-            self.prog[name].value = unit
+            for prog in (self.prog, self.layers_prog):
+                if name in prog:
+                    prog[name].value = unit
+        layers = []
+        if match.blur_radius:  # each pixel's layers once, for the blur's taps to read
+            layers = [gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")]
+            layers_fbo = gl.own(ctx.framebuffer(layers))
+            layers_fbo.use()
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
+            gl.free(layers_fbo)
+            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
+                tex.use(self.prog[name].value)
         cls = np.zeros(16, np.uint32)
         cls[1:len(classes) + 1] = classes
         inst = np.zeros(16, np.uint32)
@@ -237,7 +254,7 @@ class Composer:
         disparity = np.frombuffer(outs[3].read(), np.uint32).reshape(h, w)
         visible = np.frombuffer(outs[4].read(), np.uint32).reshape(h, w)
         gl.free(fbo)
-        for tex in outs + list(made.values()):
+        for tex in outs + layers + list(made.values()):
             gl.free(tex)
         return {"rgb": rgb, "label_ids": label.astype(np.uint8), "instance_ids": instance.astype(np.int32),
                 "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
