@@ -104,17 +104,21 @@ class Frame:
         m = self.camera.optical_from_vehicle
         return np.asarray(points_v, float) @ m[:3, :3].T + m[:3, 3]
 
-    def rect_points(self, r0: int, r1: int, c0: int, c1: int,
-                    with_pixels: bool = False) -> tuple[np.ndarray, ...]:
+    def rect_points(self, r0: int, r1: int, c0: int, c1: int, with_pixels: bool = False,
+                    only: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Vehicle-frame points (N, 3) and labels (N,) of valid pixels in rows r0:r1, cols c0:c1
-        (and their (rows, cols) when ``with_pixels``)."""
+        (and their (rows, cols) when ``with_pixels``); ``only``: a (256,) bool table of the
+        label ids wanted (the others are not back-projected)."""
         H, W = self.depth.shape
         r0, r1, c0, c1 = max(r0, 0), min(r1, H), max(c0, 0), min(c1, W)
         if r1 <= r0 or c1 <= c0:
             empty = np.empty(0, np.int64)
             return (np.empty((0, 3)), np.empty(0, np.uint8)) + ((empty, empty) if with_pixels else ())
         sub = self.depth[r0:r1, c0:c1]
-        v, u = np.nonzero(np.isfinite(sub))
+        valid = np.isfinite(sub)
+        if only is not None:
+            valid &= only[self.label_ids[r0:r1, c0:c1]]
+        v, u = np.nonzero(valid)
         z = sub[v, u].astype(np.float64)
         v, u = v + r0, u + c0
         cam = self.camera

@@ -152,11 +152,9 @@ def ground_pose(frame: Frame, x: float, y: float, yaw: float, extents, allowed_i
     rect = frame.box_rect(square)
     normal, z = np.asarray(fallback_normal, float), z0
     if rect is not None:
-        pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True)
-        sel = (np.abs(pts[:, 0] - x) <= reach) & (np.abs(pts[:, 1] - y) <= reach)
-        if allowed_ids is not None and len(allowed_ids):
-            sel &= label_mask(allowed_ids)[labs]
-        idx = np.flatnonzero(sel)
+        only = label_mask(allowed_ids) if allowed_ids is not None and len(allowed_ids) else None
+        pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True, only=only)
+        idx = np.flatnonzero((np.abs(pts[:, 0] - x) <= reach) & (np.abs(pts[:, 1] - y) <= reach))
         if len(idx):
             up = surface_normals(frame.depth, frame.camera, rr[idx], cc[idx])[:, 2]
             idx = idx[up >= math.cos(math.radians(24))]
