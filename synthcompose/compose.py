@@ -22,7 +22,7 @@ import numpy as np
 
 from .colour import linear_to_srgb, srgb_to_linear
 from .gl import GLContext
-from .render import RenderPasses, Roi
+from .render import RenderPasses
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi

@@ -584,7 +584,7 @@ class PoseTests:
         rect = frame.box_rect(square)
         near = np.empty((0, 3))
         if rect is not None:
-            pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True, only=label_mask(self.allowed_ids))
+            pts, _, rr, cc = frame.rect_points(*rect, with_pixels=True, only=label_mask(self.allowed_ids))
             sel = np.flatnonzero((np.abs(pts[:, 0] - point[0]) <= reach) & (np.abs(pts[:, 1] - point[1]) <= reach))
             # only ground-like surfaces: kerb faces and walls of an allowed label do not count
             sel = sel[surface_normals(frame.depth, frame.camera, rr[sel], cc[sel])[:, 2] >= self.min_up]

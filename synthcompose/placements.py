@@ -153,7 +153,7 @@ def ground_pose(frame: Frame, x: float, y: float, yaw: float, extents, allowed_i
     normal, z = np.asarray(fallback_normal, float), z0
     if rect is not None:
         only = label_mask(allowed_ids) if allowed_ids is not None and len(allowed_ids) else None
-        pts, labs, rr, cc = frame.rect_points(*rect, with_pixels=True, only=only)
+        pts, _, rr, cc = frame.rect_points(*rect, with_pixels=True, only=only)
         idx = np.flatnonzero((np.abs(pts[:, 0] - x) <= reach) & (np.abs(pts[:, 1] - y) <= reach))
         if len(idx):
             up = surface_normals(frame.depth, frame.camera, rr[idx], cc[idx])[:, 2]
