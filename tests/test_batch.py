@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import cv2
@@ -11,7 +10,7 @@ import pytest
 
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
-from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
+from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.sample import make_sample
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry import disparity_to_depth, make_frame
-from synthcompose.models import load_model
 from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, place_object, prefilter, strict_inside
 from synthcompose.sample import random_scene, render_scene
 
