@@ -89,9 +89,11 @@ class Summary:
         lines = [f"{self.count('done')} done, {self.count('skipped')} skipped, {self.count('failed')} failed "
                  f"({self.resumed} already complete) in {self.wall_s:.1f} s with {self.workers} "
                  f"{self.engine} worker(s)"]
+        worked = sum(not o.resumed for o in self.outcomes)
         if any(o.status == "done" and not o.resumed for o in self.outcomes):
-            lines.append("mean per image set: " + ", ".join(f"{k} {v * 1000:.0f} ms"
-                                                            for k, v in self.stage_means().items()))
+            lines.append(f"{self.wall_s / max(worked, 1) * 1000:.0f} ms per image set; mean stage times "
+                         "(stages of consecutive image sets overlap): " +
+                         ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in self.stage_means().items()))
         for o in self.outcomes:
             if o.status != "done":
                 lines.append(f"  {o.status}: {o.key}: {o.reason}")
