@@ -6,7 +6,10 @@ is the renderer's model (``shaders/lit.glsl``, :class:`synthcompose.render.Light
     E(n) = ambient(n) + sun * max(0, n.l) * visible,   ambient(n) = mix(ground, sky, 0.5 + 0.5 n_z)
 
 scaled so that an up-facing, unshadowed surface receives 1 (luminance). Cues, on a grid about
-700 cells wide (cells of 3x3 pixels at 2048x1024; depth: the mean of a cell's known pixels):
+700 cells wide (cells of 3x3 pixels at 2048x1024; depth: the mean of a cell's known pixels;
+normals: from the cells 1 and 2 apart, or, on the objects' faces (not the ground), where those
+cross an edge - narrow faces, cells next to a corner - from the cell's centre pixel and the
+photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the shading needs):
 
 * **cast shadows on the ground** (road, sidewalk, parking; up-facing cells only, none within
   half a metre of something standing, which is dark from ambient occlusion alone, no lane
@@ -73,6 +76,7 @@ ROAD_ID, SIDEWALK_ID, SKY_ID = 7, 8, 23
 OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33)
 #: surface classes whose albedo is locally constant enough for the shading pairs
 SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
+_FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
 _LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
@@ -270,6 +274,9 @@ def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Cam
     m = camera.vehicle_from_optical
     pts = opt @ m[:3, :3].T + m[:3, 3]
     normals = _normals(pts, lab_min, pure, camera)
+    if f > 1:  # a face narrower than 5 cells, or a cell within 2 of a corner: at pixel scale
+        rr, cc = np.nonzero(pure & np.isnan(normals[..., 0]) & np.isin(lab_min, _FINE_IDS))
+        normals[rr, cc] = _fine_normals(rr * f + f // 2, cc * f + f // 2, label_ids, d, camera)
     lum = (lin @ LUM.astype(np.float32)).astype(np.float32)
     return _Grid(f, lin, lum, lab_min, pure, pts, normals)
 
@@ -311,6 +318,43 @@ def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera)
     to_cam = camera.position.astype(np.float32) - p0
     n2 = np.where((np.einsum("...i,...i->...", n2, to_cam) < 0)[..., None], -n2, n2)
     out[c] = np.where(ok[..., None], n2, np.nan)
+    return out
+
+
+def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
+                  camera: Camera) -> np.ndarray:
+    """(N, 3) normals at pixels (r, c) from the photo's own pixels 1 and 2 apart, with the tests
+    of :func:`_normals`; nan where they fail (or too near the image border)."""
+    H, W = label_ids.shape
+    out = np.full((len(r), 3), np.nan, np.float32)
+    idx = np.nonzero((r >= 2) & (r < H - 2) & (c >= 2) & (c < W - 2))[0]
+    r, c = r[idx], c[idx]
+    # a pixel's vehicle-frame point is z * (col_ray[u] + row_ray[v]) + t
+    m = camera.vehicle_from_optical
+    col_ray = (((np.arange(W) - camera.u0) / camera.fx)[:, None] * m[:3, 0]).astype(np.float32)
+    row_ray = (((np.arange(H) - camera.v0) / camera.fy)[:, None] * m[:3, 1] + m[:3, 2]).astype(np.float32)
+    lab0 = label_ids[r, c]
+    ok = np.ones(len(r), bool)
+
+    def point(dr: int, dc: int) -> np.ndarray:  # relative to the camera's position
+        nonlocal ok
+        z = depth[r + dr, c + dc]
+        ok &= np.isfinite(z) & (label_ids[r + dr, c + dc] == lab0)
+        return np.where(np.isfinite(z), z, 0)[:, None] * (col_ray[c + dc] + row_ray[r + dr])
+
+    p0 = point(0, 0)
+    normals = []
+    for k in (1, 2):
+        a_u, b_u, a_v, b_v = point(0, k), point(0, -k), point(k, 0), point(-k, 0)
+        du, dv = a_u - b_u, a_v - b_v
+        for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
+            ok &= np.linalg.norm(a + b - 2 * p0, axis=-1) <= 0.08 * np.linalg.norm(span, axis=-1) + 1e-3
+        n = np.cross(du, dv)
+        normals.append(n / np.maximum(np.linalg.norm(n, axis=-1), 1e-12)[:, None])
+    n1, n2 = normals
+    ok &= np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
+    n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)  # facing the camera
+    out[idx] = np.where(ok[:, None], n2, np.nan)
     return out
 
 
