@@ -288,36 +288,45 @@ def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera)
     out = np.full((h, w, 3), np.nan, np.float32)
     if h < 5 or w < 5:
         return out
-    p = np.nan_to_num(p.astype(np.float32), nan=0.0)  # unknown cells fail `pure` anyway
+    # one plane per coordinate, relative to the camera (unknown cells fail `pure` anyway)
+    rel = np.nan_to_num(p - camera.position, nan=0.0).astype(np.float32)
+    P = [np.ascontiguousarray(rel[..., i]) for i in range(3)]
     c = (slice(2, h - 2), slice(2, w - 2))
 
     def sh(dr: int, dc: int) -> tuple[slice, slice]:
         return slice(2 + dr, h - 2 + dr), slice(2 + dc, w - 2 + dc)
 
-    def sq(v: np.ndarray) -> np.ndarray:
-        return np.einsum("...i,...i->...", v, v)
-
     ok = pure[c].copy()
+    lab0 = label[c]
     for dr in range(-2, 3):
         for dc in (-2, -1, 0, 1, 2):
-            if dr == 0 or dc == 0:
-                ok &= pure[sh(dr, dc)] & (label[sh(dr, dc)] == label[c])
-    p0 = p[c]
+            if (dr == 0) != (dc == 0):
+                ok &= pure[sh(dr, dc)] & (label[sh(dr, dc)] == lab0)
+    p0 = [q[c] for q in P]
     normals = []
     for k in (1, 2):
-        du = p[sh(0, k)] - p[sh(0, -k)]
-        dv = p[sh(k, 0)] - p[sh(-k, 0)]
+        du, dv = [], []
+        for q, q0 in zip(P, p0):
+            qa, qb, qc, qd = q[sh(0, k)], q[sh(0, -k)], q[sh(k, 0)], q[sh(-k, 0)]
+            du.append(qa - qb)
+            dv.append(qc - qd)
+            if q is P[0]:
+                dev_u, dev_v = (qa + qb - 2 * q0) ** 2, (qc + qd - 2 * q0) ** 2
+            else:
+                dev_u += (qa + qb - 2 * q0) ** 2
+                dev_v += (qc + qd - 2 * q0) ** 2
         # collinearity along each axis: a crease or a depth edge bends it
-        for a, b, span in ((sh(0, k), sh(0, -k), du), (sh(k, 0), sh(-k, 0), dv)):
-            ok &= np.sqrt(sq(p[a] + p[b] - 2 * p0)) <= 0.08 * np.sqrt(sq(span)) + 1e-3
-        n = np.cross(du, dv)
-        n /= np.maximum(np.sqrt(sq(n)), 1e-12)[..., None]
-        normals.append(n)
+        for dev, span in ((dev_u, du), (dev_v, dv)):
+            ok &= np.sqrt(dev) <= 0.08 * np.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2) + 1e-3
+        n = [du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]]
+        norm = np.maximum(np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2), 1e-12)
+        normals.append([v / norm for v in n])
     n1, n2 = normals
-    ok &= np.abs(np.einsum("...i,...i->...", n1, n2)) >= math.cos(math.radians(10))
-    to_cam = camera.position.astype(np.float32) - p0
-    n2 = np.where((np.einsum("...i,...i->...", n2, to_cam) < 0)[..., None], -n2, n2)
-    out[c] = np.where(ok[..., None], n2, np.nan)
+    ok &= np.abs(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) >= math.cos(math.radians(10))
+    # facing the camera: against the point's offset from it
+    sign = np.where(n2[0] * p0[0] + n2[1] * p0[1] + n2[2] * p0[2] > 0, np.float32(-1.0), np.float32(1.0))
+    sign[~ok] = np.nan
+    out[c] = np.stack([v * sign for v in n2], axis=-1)
     return out
 
 
@@ -648,12 +657,14 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     h, w = ok.shape
     n1s, n2s, ys, labs, rcs = [], [], [], [], []
     loglum = np.log(np.maximum(g.lum, 1e-6))
+    nx, ny, nz = (np.ascontiguousarray(g.normals[..., i]) for i in range(3))
+    cos20 = np.float32(math.cos(math.radians(20)))
     for d in (2, 3, 5):
         for dr, dc in ((0, d), (d, 0), (d, d), (d, -d)):
             a = (slice(max(0, -dr), h - max(0, dr)), slice(max(0, -dc), w - max(0, dc)))
             b = (slice(a[0].start + dr, a[0].stop + dr), slice(a[1].start + dc, a[1].stop + dc))
             both = ok[a] & ok[b] & (g.label[a] == g.label[b])
-            both &= np.sum(g.normals[a] * g.normals[b], axis=-1) < math.cos(math.radians(20))
+            both &= nx[a] * nx[b] + ny[a] * ny[b] + nz[a] * nz[b] < cos20
             idx = np.nonzero(both)
             if not len(idx[0]):
                 continue
