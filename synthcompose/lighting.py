@@ -696,18 +696,27 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     lab, rc = np.concatenate(labs), np.concatenate(rcs)
     if len(y) < 30:
         return None
-    if len(y) > max_pairs:
-        pick = np.linspace(0, len(y) - 1, max_pairs).astype(np.int64)
-        n1, n2, y, lab, rc = n1[pick], n2[pick], y[pick], lab[pick], rc[pick]
-    # regions of 1/32 of the grid width: each counts at most like PAIRS_PER_REGION pairs
+    # regions of 1/32 of the grid width: each counts at most like PAIRS_PER_REGION pairs, and
+    # keeps at most PAIRS_KEPT_PER_REGION of its pairs (evenly spread: its mean speaks for it)
     side = max(4, w // 32)
     region = (rc[:, 0] // side) * (w // side + 1) + rc[:, 1] // side
-    counts = np.bincount(region)[region]
-    weight = np.minimum(1.0, PAIRS_PER_REGION / counts) * PAIR_CLASS_WEIGHT[lab]
+    order = np.argsort(region, kind="stable")
+    counts = np.bincount(region)
+    first = np.cumsum(counts) - counts
+    rank = np.empty(len(y), np.int64)
+    rank[order] = np.arange(len(y)) - first[region[order]]
+    total = counts[region]
+    keep = (rank * PAIRS_KEPT_PER_REGION) % total < PAIRS_KEPT_PER_REGION
+    if keep.sum() > max_pairs:
+        keep[np.nonzero(keep)[0][np.linspace(0, keep.sum() - 1, keep.sum() - max_pairs).astype(np.int64)]] = False
+    n1, n2, y, lab, rc, region, total = (v[keep] for v in (n1, n2, y, lab, rc, region, total))
+    kept = np.bincount(region)[region]
+    weight = np.minimum(total, PAIRS_PER_REGION) / kept * PAIR_CLASS_WEIGHT[lab]
     return _PairCue(n1, n2, y, lab, rc, weight)
 
 
 PAIRS_PER_REGION = 6
+PAIRS_KEPT_PER_REGION = 24
 #: trust in each class's pairs, measured with benchmarks/eval_lighting.py (sun within 20 degrees
 #: of the truth; the windows' colour change keeps them out of building pairs): building corners
 #: are the best cue; a car's faces often change paint or carry lamps, so cars weigh a quarter;
