@@ -19,7 +19,11 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   at least 30 % darker) means sunlight; ``exp(delta)`` is the sky's share of the light on
   up-facing ground, ``1 - exp(delta)`` the sun's. Without such shadows the light is ambient
   only: an overcast sky, or all the ground in view in shadow - either way what the inserted
-  objects, which stand on that ground, receive.
+  objects, which stand on that ground, receive - unless all the ground in view is lit: the
+  shading pairs show a clear sun (:data:`LIT_GROUND_MIN_GAIN`) whose best direction (within
+  :data:`LIT_GROUND_MARGIN`) the geometry says leaves the ground samples it can tell about lit
+  (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known). Then the sun
+  is that direction and the sky's share the pairs' fit.
 * **shading of surface pairs** (the sun's direction): pairs of nearby cells of one class on
   the two faces of a convex edge (car tops and sides, building corners, kerbs, poles), of one
   chromaticity (so a lamp or a window next to the edge does not count), whose normals (from the
@@ -66,6 +70,9 @@ EXPOSURE_RANGE = (0.2, 3.0)
 #: a sun needs cast shadows on the ground: two brightness levels whose fit gains this many nats
 #: per sample over one level, the shadow darker than this (log ratio: -0.35 = 30 % darker)
 MIN_TWO_LEVEL_GAIN, MAX_SHADOW_LOG_RATIO = 0.05, -0.35
+#: without shadows on the ground, a sun needs the shading to gain this many nats per pair, at a
+#: direction that leaves the ground in view lit and scores within the margin of the best one
+LIT_GROUND_MIN_GAIN, LIT_GROUND_MARGIN, LIT_GROUND_KNOWN = 1.0, 0.05, 0.15
 #: weight of the geometric shadow agreement against the shading cue in the direction's score
 SHADOW_AGREEMENT_WEIGHT = 0.1
 
@@ -111,7 +118,8 @@ def _r(v, nd: int = 4):
 class LightEstimate:
     """The light of one photo, in the vehicle frame (ISO 8855), linear RGB.
 
-    sunny              : a sun was found (cast shadows on the ground), else ambient light only
+    sunny              : a sun was found (cast shadows on the ground, or a clear shading sun
+                         that leaves all the ground in view lit), else ambient light only
     sun_azimuth_deg    : towards the sun, from x (forward) to y (left); best fit even when not sunny
     sun_elevation_deg  : above the horizon
     sun_fraction       : share of an up-facing unshadowed surface's irradiance from the sun
@@ -826,7 +834,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     cues.update(info)
     cues["direction_score"] = score
 
-    # Is there a sun? Only cast shadows on the ground say so reliably (module docstring).
+    # Is there a sun? Cast shadows on the ground say so reliably; without them, only a clear
+    # shading sun that leaves the ground in view lit (module docstring).
     strength = 0.0
     two_levels = False
     if mix is not None:
@@ -836,7 +845,23 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         if not 0.01 <= mix.share <= 0.95:
             strength = 0.0
     sunny = bool(two_levels and score > 0.0)
-    delta = _core_step(shadow, mix) if sunny else 0.0
+    lit_ground = None
+    if not two_levels and shadow is not None and pairs is not None:
+        lit_ground = _lit_ground_sun(shadow, pairs, none, coarse)
+    if lit_ground is not None:
+        # no shadow in view, yet the shading shows a sun that leaves all the ground in view lit
+        sunny = True
+        gain, az, el, k, gm = lit_ground
+        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
+        cues.update(info)
+        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
+    cues["lit_ground_sun"] = lit_ground is not None
+    if not sunny:
+        delta = 0.0
+    elif lit_ground is not None:  # what a shadow would be: the sky's share of the light
+        delta = math.log(lit_ground[3])
+    else:
+        delta = _core_step(shadow, mix)
     cues["ground_shadow_core_log_ratio"] = delta
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sunny else 0.0
     confidence = strength if sunny else ((1.0 - strength) if mix is not None else 0.3)
@@ -846,7 +871,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     sky_rgb = sun_rgb = ground_rgb = np.ones(3)
     exposure, levels = 1.0, ()
     if shadow is not None:
-        in_shadow = mix.posterior > 0.5 if sunny else np.zeros(len(shadow.rel), bool)
+        in_shadow = mix.posterior > 0.5 if sunny and lit_ground is None else np.zeros(len(shadow.rel), bool)
         lo, hi = np.quantile(shadow.rel, [0.03, 0.9])
         typical = (shadow.rel >= lo) & (shadow.rel <= hi)  # not markings, not deep holes
         lit = ~in_shadow & typical
@@ -875,6 +900,36 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         ground_rgb=tuple(float(v) for v in ground_rgb), ground_ratio=float(info["shading_ground_ratio"]),
         exposure=float(exposure), confidence=float(confidence), ground_levels=levels,
         shadow_log_ratio=float(delta) if sunny else 0.0, cues=cues)
+
+
+def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
+    """A sun for ground without cast shadows in view: (shading gain, azimuth, elevation, sky
+    share, ground ratio), or None. Only where the shading shows a clear sun (gain >=
+    :data:`LIT_GROUND_MIN_GAIN`) and its best direction, within :data:`LIT_GROUND_MARGIN`, is one
+    for which the geometry predicts none of the ground samples it can tell about (at least
+    :data:`LIT_GROUND_KNOWN` of them) in shadow: then no shadow is expected in view. A best direction that puts the
+    ground in view in shadow means ambient light only (module docstring)."""
+    top = coarse[0][0]
+    if top < LIT_GROUND_MIN_GAIN:
+        return None
+
+    def lit(az: float, el: float) -> bool:
+        shadowed, known = shadow.shadowed(az, el)
+        return known.mean() >= LIT_GROUND_KNOWN and shadowed[known].mean() <= 0.05
+
+    for gain, az0, el0 in coarse:
+        if gain < max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN):
+            return None
+        if lit(az0, el0):
+            break
+    best = (gain, az0, el0)
+    for az in az0 + np.arange(-10.0, 10.1, 5.0):
+        for el in np.clip(el0 + np.arange(-8.0, 8.1, 4.0), 8.0, 85.0):
+            gain = _pair_fit(pairs, none, float(az % 360.0), float(el))[0]
+            if gain > best[0] and lit(float(az % 360.0), float(el)):
+                best = (gain, float(az % 360.0), float(el))
+    gain, k, gm = _pair_fit(pairs, none, best[1], best[2])
+    return gain, best[1], best[2], k, gm
 
 
 def _core_step(cue: _ShadowCue, mix: _Mixture) -> float:
