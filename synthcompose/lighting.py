@@ -658,6 +658,7 @@ class _PairCue:
     label: np.ndarray  # (N,) class of the pair
     rc: np.ndarray  # (N, 4) grid cells (row, col) of both ends
     weight: np.ndarray  # (N,) so that no one object (image region) outweighs the rest
+    terms: dict = field(default_factory=dict)  # direction-free terms of _pair_fit, float32
 
 
 def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
@@ -760,17 +761,20 @@ def _pair_fit(cue: _PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> 
     """(gain in nats per pair over the ambient-only model, sky share, ground ratio) of the best
     sunny model for that sun direction. A pair may instead lie in a cast shadow (ambient only,
     at a small extra cost), so shadowed objects do not speak against the sun."""
-    d = _direction(az_deg, el_deg)
-    s1 = np.maximum(cue.n1 @ d, 0) / d[2]
-    s2 = np.maximum(cue.n2 @ d, 0) / d[2]
-    k = _KS[:, None, None]
-    gm = _GAMMAS[None, :, None]
-    h1 = gm + (1 - gm) * (0.5 + 0.5 * cue.n1[:, 2])[None, None, :]
-    h2 = gm + (1 - gm) * (0.5 + 0.5 * cue.n2[:, 2])[None, None, :]
-    e1 = k * h1 + (1 - k) * s1[None, None, :]
-    e2 = k * h2 + (1 - k) * s2[None, None, :]
-    loss = _rho(cue.y[None, None, :] - np.log(np.maximum(e1, 1e-4) / np.maximum(e2, 1e-4)))
-    loss = np.minimum(loss, none[None, None, :] + _SHADOWED_PAIR) @ cue.weight
+    t = cue.terms
+    if not t:  # the sky's part of each end's light, k * ambient(n), for every (k, ground ratio)
+        k, gm = _KS[:, None, None], _GAMMAS[None, :, None]
+        for name, n in (("kh1", cue.n1), ("kh2", cue.n2)):
+            t[name] = (k * (gm + (1 - gm) * (0.5 + 0.5 * n[:, 2])[None, None, :])).astype(np.float32)
+        t["sun_share"] = (1 - _KS[:, None, None]).astype(np.float32)
+        t["n1"], t["n2"], t["y"] = cue.n1.astype(np.float32), cue.n2.astype(np.float32), cue.y.astype(np.float32)
+    d = _direction(az_deg, el_deg).astype(np.float32)
+    s1 = np.maximum(t["n1"] @ d, 0) / d[2]
+    s2 = np.maximum(t["n2"] @ d, 0) / d[2]
+    e1 = np.maximum(t["kh1"] + t["sun_share"] * s1, np.float32(1e-4))
+    e2 = np.maximum(t["kh2"] + t["sun_share"] * s2, np.float32(1e-4))
+    loss = _rho(t["y"] - np.log(e1 / e2))
+    loss = np.minimum(loss, (none + _SHADOWED_PAIR).astype(np.float32)).astype(np.float64) @ cue.weight
     i, j = np.unravel_index(int(np.argmin(loss)), loss.shape)
     return float((none @ cue.weight - loss[i, j]) / cue.weight.sum()), float(_KS[i]), float(_GAMMAS[j])
 
