@@ -6,7 +6,10 @@ is the renderer's model (``shaders/lit.glsl``, :class:`synthcompose.render.Light
     E(n) = ambient(n) + sun * max(0, n.l) * visible,   ambient(n) = mix(ground, sky, 0.5 + 0.5 n_z)
 
 scaled so that an up-facing, unshadowed surface receives 1 (luminance). Cues, on a grid about
-700 cells wide (cells of 3x3 pixels at 2048x1024; depth: the mean of a cell's known pixels):
+700 cells wide (cells of 3x3 pixels at 2048x1024; depth: the mean of a cell's known pixels;
+normals: from the cells 1 and 2 apart, or, on the objects' faces (not the ground), where those
+cross an edge - narrow faces, cells next to a corner - from the cell's centre pixel and the
+photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the shading needs):
 
 * **cast shadows on the ground** (road, sidewalk, parking; up-facing cells only, none within
   half a metre of something standing, which is dark from ambient occlusion alone, no lane
@@ -16,7 +19,11 @@ scaled so that an up-facing, unshadowed surface receives 1 (luminance). Cues, on
   at least 30 % darker) means sunlight; ``exp(delta)`` is the sky's share of the light on
   up-facing ground, ``1 - exp(delta)`` the sun's. Without such shadows the light is ambient
   only: an overcast sky, or all the ground in view in shadow - either way what the inserted
-  objects, which stand on that ground, receive.
+  objects, which stand on that ground, receive - unless all the ground in view is lit: the
+  shading pairs show a clear sun (:data:`LIT_GROUND_MIN_GAIN`) whose best direction (within
+  :data:`LIT_GROUND_MARGIN`) the geometry says leaves the ground samples it can tell about lit
+  (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known). Then the sun
+  is that direction and the sky's share the pairs' fit.
 * **shading of surface pairs** (the sun's direction): pairs of nearby cells of one class on
   the two faces of a convex edge (car tops and sides, building corners, kerbs, poles), of one
   chromaticity (so a lamp or a window next to the edge does not count), whose normals (from the
@@ -63,6 +70,9 @@ EXPOSURE_RANGE = (0.2, 3.0)
 #: a sun needs cast shadows on the ground: two brightness levels whose fit gains this many nats
 #: per sample over one level, the shadow darker than this (log ratio: -0.35 = 30 % darker)
 MIN_TWO_LEVEL_GAIN, MAX_SHADOW_LOG_RATIO = 0.05, -0.35
+#: without shadows on the ground, a sun needs the shading to gain this many nats per pair, at a
+#: direction that leaves the ground in view lit and scores within the margin of the best one
+LIT_GROUND_MIN_GAIN, LIT_GROUND_MARGIN, LIT_GROUND_KNOWN = 1.0, 0.05, 0.15
 #: weight of the geometric shadow agreement against the shading cue in the direction's score
 SHADOW_AGREEMENT_WEIGHT = 0.1
 
@@ -73,6 +83,7 @@ ROAD_ID, SIDEWALK_ID, SKY_ID = 7, 8, 23
 OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33)
 #: surface classes whose albedo is locally constant enough for the shading pairs
 SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
+_FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
 _LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
@@ -107,7 +118,8 @@ def _r(v, nd: int = 4):
 class LightEstimate:
     """The light of one photo, in the vehicle frame (ISO 8855), linear RGB.
 
-    sunny              : a sun was found (cast shadows on the ground), else ambient light only
+    sunny              : a sun was found (cast shadows on the ground, or a clear shading sun
+                         that leaves all the ground in view lit), else ambient light only
     sun_azimuth_deg    : towards the sun, from x (forward) to y (left); best fit even when not sunny
     sun_elevation_deg  : above the horizon
     sun_fraction       : share of an up-facing unshadowed surface's irradiance from the sun
@@ -270,6 +282,9 @@ def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Cam
     m = camera.vehicle_from_optical
     pts = opt @ m[:3, :3].T + m[:3, 3]
     normals = _normals(pts, lab_min, pure, camera)
+    if f > 1:  # a face narrower than 5 cells, or a cell within 2 of a corner: at pixel scale
+        rr, cc = np.nonzero(pure & np.isnan(normals[..., 0]) & np.isin(lab_min, _FINE_IDS))
+        normals[rr, cc] = _fine_normals(rr * f + f // 2, cc * f + f // 2, label_ids, d, camera)
     lum = (lin @ LUM.astype(np.float32)).astype(np.float32)
     return _Grid(f, lin, lum, lab_min, pure, pts, normals)
 
@@ -281,36 +296,82 @@ def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera)
     out = np.full((h, w, 3), np.nan, np.float32)
     if h < 5 or w < 5:
         return out
-    p = np.nan_to_num(p.astype(np.float32), nan=0.0)  # unknown cells fail `pure` anyway
+    # one plane per coordinate, relative to the camera (unknown cells fail `pure` anyway)
+    rel = np.nan_to_num(p - camera.position, nan=0.0).astype(np.float32)
+    P = [np.ascontiguousarray(rel[..., i]) for i in range(3)]
     c = (slice(2, h - 2), slice(2, w - 2))
 
     def sh(dr: int, dc: int) -> tuple[slice, slice]:
         return slice(2 + dr, h - 2 + dr), slice(2 + dc, w - 2 + dc)
 
-    def sq(v: np.ndarray) -> np.ndarray:
-        return np.einsum("...i,...i->...", v, v)
-
     ok = pure[c].copy()
+    lab0 = label[c]
     for dr in range(-2, 3):
         for dc in (-2, -1, 0, 1, 2):
-            if dr == 0 or dc == 0:
-                ok &= pure[sh(dr, dc)] & (label[sh(dr, dc)] == label[c])
-    p0 = p[c]
+            if (dr == 0) != (dc == 0):
+                ok &= pure[sh(dr, dc)] & (label[sh(dr, dc)] == lab0)
+    p0 = [q[c] for q in P]
     normals = []
     for k in (1, 2):
-        du = p[sh(0, k)] - p[sh(0, -k)]
-        dv = p[sh(k, 0)] - p[sh(-k, 0)]
+        du, dv = [], []
+        for q, q0 in zip(P, p0):
+            qa, qb, qc, qd = q[sh(0, k)], q[sh(0, -k)], q[sh(k, 0)], q[sh(-k, 0)]
+            du.append(qa - qb)
+            dv.append(qc - qd)
+            if q is P[0]:
+                dev_u, dev_v = (qa + qb - 2 * q0) ** 2, (qc + qd - 2 * q0) ** 2
+            else:
+                dev_u += (qa + qb - 2 * q0) ** 2
+                dev_v += (qc + qd - 2 * q0) ** 2
         # collinearity along each axis: a crease or a depth edge bends it
-        for a, b, span in ((sh(0, k), sh(0, -k), du), (sh(k, 0), sh(-k, 0), dv)):
-            ok &= np.sqrt(sq(p[a] + p[b] - 2 * p0)) <= 0.08 * np.sqrt(sq(span)) + 1e-3
-        n = np.cross(du, dv)
-        n /= np.maximum(np.sqrt(sq(n)), 1e-12)[..., None]
-        normals.append(n)
+        for dev, span in ((dev_u, du), (dev_v, dv)):
+            ok &= np.sqrt(dev) <= 0.08 * np.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2) + 1e-3
+        n = [du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]]
+        norm = np.maximum(np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2), 1e-12)
+        normals.append([v / norm for v in n])
     n1, n2 = normals
-    ok &= np.abs(np.einsum("...i,...i->...", n1, n2)) >= math.cos(math.radians(10))
-    to_cam = camera.position.astype(np.float32) - p0
-    n2 = np.where((np.einsum("...i,...i->...", n2, to_cam) < 0)[..., None], -n2, n2)
-    out[c] = np.where(ok[..., None], n2, np.nan)
+    ok &= np.abs(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) >= math.cos(math.radians(10))
+    # facing the camera: against the point's offset from it
+    sign = np.where(n2[0] * p0[0] + n2[1] * p0[1] + n2[2] * p0[2] > 0, np.float32(-1.0), np.float32(1.0))
+    sign[~ok] = np.nan
+    out[c] = np.stack([v * sign for v in n2], axis=-1)
+    return out
+
+
+def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
+                  camera: Camera) -> np.ndarray:
+    """(N, 3) normals at pixels (r, c) from the photo's own pixels 1 and 2 apart, with the tests
+    of :func:`_normals`; nan where they fail (or too near the image border)."""
+    H, W = label_ids.shape
+    out = np.full((len(r), 3), np.nan, np.float32)
+    idx = np.nonzero((r >= 2) & (r < H - 2) & (c >= 2) & (c < W - 2))[0]
+    r, c = r[idx], c[idx]
+    # a pixel's vehicle-frame point is z * (col_ray[u] + row_ray[v]) + t
+    m = camera.vehicle_from_optical
+    col_ray = (((np.arange(W) - camera.u0) / camera.fx)[:, None] * m[:3, 0]).astype(np.float32)
+    row_ray = (((np.arange(H) - camera.v0) / camera.fy)[:, None] * m[:3, 1] + m[:3, 2]).astype(np.float32)
+    lab0 = label_ids[r, c]
+    ok = np.ones(len(r), bool)
+
+    def point(dr: int, dc: int) -> np.ndarray:  # relative to the camera's position
+        nonlocal ok
+        z = depth[r + dr, c + dc]
+        ok &= np.isfinite(z) & (label_ids[r + dr, c + dc] == lab0)
+        return np.where(np.isfinite(z), z, 0)[:, None] * (col_ray[c + dc] + row_ray[r + dr])
+
+    p0 = point(0, 0)
+    normals = []
+    for k in (1, 2):
+        a_u, b_u, a_v, b_v = point(0, k), point(0, -k), point(k, 0), point(-k, 0)
+        du, dv = a_u - b_u, a_v - b_v
+        for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
+            ok &= np.linalg.norm(a + b - 2 * p0, axis=-1) <= 0.08 * np.linalg.norm(span, axis=-1) + 1e-3
+        n = np.cross(du, dv)
+        normals.append(n / np.maximum(np.linalg.norm(n, axis=-1), 1e-12)[:, None])
+    n1, n2 = normals
+    ok &= np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
+    n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)  # facing the camera
+    out[idx] = np.where(ok[:, None], n2, np.nan)
     return out
 
 
@@ -597,6 +658,7 @@ class _PairCue:
     label: np.ndarray  # (N,) class of the pair
     rc: np.ndarray  # (N, 4) grid cells (row, col) of both ends
     weight: np.ndarray  # (N,) so that no one object (image region) outweighs the rest
+    terms: dict = field(default_factory=dict)  # direction-free terms of _pair_fit, float32
 
 
 def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
@@ -604,12 +666,14 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     h, w = ok.shape
     n1s, n2s, ys, labs, rcs = [], [], [], [], []
     loglum = np.log(np.maximum(g.lum, 1e-6))
+    nx, ny, nz = (np.ascontiguousarray(g.normals[..., i]) for i in range(3))
+    cos20 = np.float32(math.cos(math.radians(20)))
     for d in (2, 3, 5):
         for dr, dc in ((0, d), (d, 0), (d, d), (d, -d)):
             a = (slice(max(0, -dr), h - max(0, dr)), slice(max(0, -dc), w - max(0, dc)))
             b = (slice(a[0].start + dr, a[0].stop + dr), slice(a[1].start + dc, a[1].stop + dc))
             both = ok[a] & ok[b] & (g.label[a] == g.label[b])
-            both &= np.sum(g.normals[a] * g.normals[b], axis=-1) < math.cos(math.radians(20))
+            both &= nx[a] * nx[b] + ny[a] * ny[b] + nz[a] * nz[b] < cos20
             idx = np.nonzero(both)
             if not len(idx[0]):
                 continue
@@ -641,18 +705,27 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     lab, rc = np.concatenate(labs), np.concatenate(rcs)
     if len(y) < 30:
         return None
-    if len(y) > max_pairs:
-        pick = np.linspace(0, len(y) - 1, max_pairs).astype(np.int64)
-        n1, n2, y, lab, rc = n1[pick], n2[pick], y[pick], lab[pick], rc[pick]
-    # regions of 1/32 of the grid width: each counts at most like PAIRS_PER_REGION pairs
+    # regions of 1/32 of the grid width: each counts at most like PAIRS_PER_REGION pairs, and
+    # keeps at most PAIRS_KEPT_PER_REGION of its pairs (evenly spread: its mean speaks for it)
     side = max(4, w // 32)
     region = (rc[:, 0] // side) * (w // side + 1) + rc[:, 1] // side
-    counts = np.bincount(region)[region]
-    weight = np.minimum(1.0, PAIRS_PER_REGION / counts) * PAIR_CLASS_WEIGHT[lab]
+    order = np.argsort(region, kind="stable")
+    counts = np.bincount(region)
+    first = np.cumsum(counts) - counts
+    rank = np.empty(len(y), np.int64)
+    rank[order] = np.arange(len(y)) - first[region[order]]
+    total = counts[region]
+    keep = (rank * PAIRS_KEPT_PER_REGION) % total < PAIRS_KEPT_PER_REGION
+    if keep.sum() > max_pairs:
+        keep[np.nonzero(keep)[0][np.linspace(0, keep.sum() - 1, keep.sum() - max_pairs).astype(np.int64)]] = False
+    n1, n2, y, lab, rc, region, total = (v[keep] for v in (n1, n2, y, lab, rc, region, total))
+    kept = np.bincount(region)[region]
+    weight = np.minimum(total, PAIRS_PER_REGION) / kept * PAIR_CLASS_WEIGHT[lab]
     return _PairCue(n1, n2, y, lab, rc, weight)
 
 
 PAIRS_PER_REGION = 6
+PAIRS_KEPT_PER_REGION = 24
 #: trust in each class's pairs, measured with benchmarks/eval_lighting.py (sun within 20 degrees
 #: of the truth; the windows' colour change keeps them out of building pairs): building corners
 #: are the best cue; a car's faces often change paint or carry lamps, so cars weigh a quarter;
@@ -688,17 +761,20 @@ def _pair_fit(cue: _PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> 
     """(gain in nats per pair over the ambient-only model, sky share, ground ratio) of the best
     sunny model for that sun direction. A pair may instead lie in a cast shadow (ambient only,
     at a small extra cost), so shadowed objects do not speak against the sun."""
-    d = _direction(az_deg, el_deg)
-    s1 = np.maximum(cue.n1 @ d, 0) / d[2]
-    s2 = np.maximum(cue.n2 @ d, 0) / d[2]
-    k = _KS[:, None, None]
-    gm = _GAMMAS[None, :, None]
-    h1 = gm + (1 - gm) * (0.5 + 0.5 * cue.n1[:, 2])[None, None, :]
-    h2 = gm + (1 - gm) * (0.5 + 0.5 * cue.n2[:, 2])[None, None, :]
-    e1 = k * h1 + (1 - k) * s1[None, None, :]
-    e2 = k * h2 + (1 - k) * s2[None, None, :]
-    loss = _rho(cue.y[None, None, :] - np.log(np.maximum(e1, 1e-4) / np.maximum(e2, 1e-4)))
-    loss = np.minimum(loss, none[None, None, :] + _SHADOWED_PAIR) @ cue.weight
+    t = cue.terms
+    if not t:  # the sky's part of each end's light, k * ambient(n), for every (k, ground ratio)
+        k, gm = _KS[:, None, None], _GAMMAS[None, :, None]
+        for name, n in (("kh1", cue.n1), ("kh2", cue.n2)):
+            t[name] = (k * (gm + (1 - gm) * (0.5 + 0.5 * n[:, 2])[None, None, :])).astype(np.float32)
+        t["sun_share"] = (1 - _KS[:, None, None]).astype(np.float32)
+        t["n1"], t["n2"], t["y"] = cue.n1.astype(np.float32), cue.n2.astype(np.float32), cue.y.astype(np.float32)
+    d = _direction(az_deg, el_deg).astype(np.float32)
+    s1 = np.maximum(t["n1"] @ d, 0) / d[2]
+    s2 = np.maximum(t["n2"] @ d, 0) / d[2]
+    e1 = np.maximum(t["kh1"] + t["sun_share"] * s1, np.float32(1e-4))
+    e2 = np.maximum(t["kh2"] + t["sun_share"] * s2, np.float32(1e-4))
+    loss = _rho(t["y"] - np.log(e1 / e2))
+    loss = np.minimum(loss, (none + _SHADOWED_PAIR).astype(np.float32)).astype(np.float64) @ cue.weight
     i, j = np.unravel_index(int(np.argmin(loss)), loss.shape)
     return float((none @ cue.weight - loss[i, j]) / cue.weight.sum()), float(_KS[i]), float(_GAMMAS[j])
 
@@ -762,7 +838,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     cues.update(info)
     cues["direction_score"] = score
 
-    # Is there a sun? Only cast shadows on the ground say so reliably (module docstring).
+    # Is there a sun? Cast shadows on the ground say so reliably; without them, only a clear
+    # shading sun that leaves the ground in view lit (module docstring).
     strength = 0.0
     two_levels = False
     if mix is not None:
@@ -772,7 +849,23 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         if not 0.01 <= mix.share <= 0.95:
             strength = 0.0
     sunny = bool(two_levels and score > 0.0)
-    delta = _core_step(shadow, mix) if sunny else 0.0
+    lit_ground = None
+    if not two_levels and shadow is not None and pairs is not None:
+        lit_ground = _lit_ground_sun(shadow, pairs, none, coarse)
+    if lit_ground is not None:
+        # no shadow in view, yet the shading shows a sun that leaves all the ground in view lit
+        sunny = True
+        gain, az, el, k, gm = lit_ground
+        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
+        cues.update(info)
+        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
+    cues["lit_ground_sun"] = lit_ground is not None
+    if not sunny:
+        delta = 0.0
+    elif lit_ground is not None:  # what a shadow would be: the sky's share of the light
+        delta = math.log(lit_ground[3])
+    else:
+        delta = _core_step(shadow, mix)
     cues["ground_shadow_core_log_ratio"] = delta
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sunny else 0.0
     confidence = strength if sunny else ((1.0 - strength) if mix is not None else 0.3)
@@ -782,7 +875,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     sky_rgb = sun_rgb = ground_rgb = np.ones(3)
     exposure, levels = 1.0, ()
     if shadow is not None:
-        in_shadow = mix.posterior > 0.5 if sunny else np.zeros(len(shadow.rel), bool)
+        in_shadow = mix.posterior > 0.5 if sunny and lit_ground is None else np.zeros(len(shadow.rel), bool)
         lo, hi = np.quantile(shadow.rel, [0.03, 0.9])
         typical = (shadow.rel >= lo) & (shadow.rel <= hi)  # not markings, not deep holes
         lit = ~in_shadow & typical
@@ -811,6 +904,36 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         ground_rgb=tuple(float(v) for v in ground_rgb), ground_ratio=float(info["shading_ground_ratio"]),
         exposure=float(exposure), confidence=float(confidence), ground_levels=levels,
         shadow_log_ratio=float(delta) if sunny else 0.0, cues=cues)
+
+
+def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
+    """A sun for ground without cast shadows in view: (shading gain, azimuth, elevation, sky
+    share, ground ratio), or None. Only where the shading shows a clear sun (gain >=
+    :data:`LIT_GROUND_MIN_GAIN`) and its best direction, within :data:`LIT_GROUND_MARGIN`, is one
+    for which the geometry predicts none of the ground samples it can tell about (at least
+    :data:`LIT_GROUND_KNOWN` of them) in shadow: then no shadow is expected in view. A best direction that puts the
+    ground in view in shadow means ambient light only (module docstring)."""
+    top = coarse[0][0]
+    if top < LIT_GROUND_MIN_GAIN:
+        return None
+
+    def lit(az: float, el: float) -> bool:
+        shadowed, known = shadow.shadowed(az, el)
+        return known.mean() >= LIT_GROUND_KNOWN and shadowed[known].mean() <= 0.05
+
+    for gain, az0, el0 in coarse:
+        if gain < max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN):
+            return None
+        if lit(az0, el0):
+            break
+    best = (gain, az0, el0)
+    for az in az0 + np.arange(-10.0, 10.1, 5.0):
+        for el in np.clip(el0 + np.arange(-8.0, 8.1, 4.0), 8.0, 85.0):
+            gain = _pair_fit(pairs, none, float(az % 360.0), float(el))[0]
+            if gain > best[0] and lit(float(az % 360.0), float(el)):
+                best = (gain, float(az % 360.0), float(el))
+    gain, k, gm = _pair_fit(pairs, none, best[1], best[2])
+    return gain, best[1], best[2], k, gm
 
 
 def _core_step(cue: _ShadowCue, mix: _Mixture) -> float:

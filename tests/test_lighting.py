@@ -67,10 +67,11 @@ def test_sunny_scene_gives_the_sun_its_share_and_the_colours(seed, azimuth, elev
 
 def test_sun_azimuth_over_random_sunny_scenes():
     """The sun's direction, over 48 generated scenes with a sun anywhere round the camera (as
-    benchmarks/eval_lighting.py measures it): where the ground in view shows cast shadows the
-    sun is found, and its azimuth is mostly within 20 degrees. Measured on these scenes: found
-    in 18, 15 of them within 20 degrees, median error 5 degrees (with the earlier pair weights,
-    kerbs at full weight: 6 of 17, median 30)."""
+    benchmarks/eval_lighting.py measures it): where the ground in view shows cast shadows, or is
+    all lit under a clear shading sun, the sun is found, and its azimuth is mostly within 20
+    degrees. Measured on these scenes: found in 25, 20 of them within 20 degrees, median error
+    7 degrees (before the lit-ground sun: found in 18, 15 within 20 degrees, median 5; with the
+    earlier pair weights, kerbs at full weight: 6 of 17, median 30)."""
     rng = np.random.default_rng(77)
     errors, found = [], 0
     for seed in range(300, 348):
@@ -81,9 +82,9 @@ def test_sun_azimuth_over_random_sunny_scenes():
             found += 1
             errors.append(azimuth_error(est.sun_azimuth_deg, azimuth))
     errors = np.array(errors)
-    assert found >= 14
-    assert np.mean(errors <= 20.0) >= 0.65, np.round(errors)
-    assert np.median(errors) <= 12.0
+    assert found >= 22
+    assert np.mean(errors <= 20.0) >= 0.7, np.round(errors)
+    assert np.median(errors) <= 10.0
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
