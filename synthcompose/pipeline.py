@@ -135,6 +135,35 @@ class _Computed:
     camera_json: bytes
 
 
+#: glibc's mallopt parameter: allocations of at least this many bytes are mapped afresh and
+#: given back to the system when freed
+_M_MMAP_THRESHOLD = -3
+_malloc_fixed = False
+
+
+def _steady_malloc(threshold: int = 4 << 20) -> None:
+    """Fix glibc's mmap threshold (once per process) so that freed image-size arrays go back to
+    the system. By default the threshold grows with the largest block freed (up to 32 MB), after
+    which 2048x1024 arrays come from the heaps of the threads that made them and stay there:
+    streaming 40 image sets, resident memory grew from 600 to 880 MB (peak 1021 MB). With the
+    threshold fixed at 4 MB it stayed at 370-480 MB (peak 858 MB), for about 5 % more CPU
+    (fresh pages); at 1 MB the same, for 10 %; at 16 MB it grew again (490 -> 640 MB). Limiting
+    glibc to one arena did not help. Does nothing without glibc."""
+    global _malloc_fixed
+    if _malloc_fixed:
+        return
+    _malloc_fixed = True
+    try:
+        import ctypes
+        import ctypes.util
+
+        name = ctypes.util.find_library("c")
+        if name:
+            ctypes.CDLL(name).mallopt(_M_MMAP_THRESHOLD, threshold)
+    except (OSError, AttributeError):  # not glibc: its own allocator
+        pass
+
+
 def _guarded(ident: ImageSetId, timings: dict[str, float], step: Callable):
     """``step()``, or a ``failed`` outcome when it raises: bad input is reported, never raised."""
     try:
@@ -223,6 +252,7 @@ class Pipeline:
         (by the preparing thread: it may block, e.g. on a worker's pipe); ``on_begin`` is
         called on this thread before an image set's placement starts.
         """
+        _steady_malloc()
         source = iter(idents)
 
         def prepare_next() -> tuple[ImageSetId, dict, "_Prepared | Outcome"] | None:

@@ -321,3 +321,33 @@ def test_memory_and_open_files_stay_flat_over_1000_image_sets(tmp_path):
     fds = [s[1] for s in samples]
     assert max(fds) == min(fds), fds
     assert rss[-1] - rss[1] < 25, rss  # MB, after warm-up: no growth per image set
+
+
+def test_streaming_keeps_memory_threads_and_open_files_flat(tmp_path):
+    """Pipeline.stream (three image sets in the works, on threads) over 200 image sets: resident
+    memory, threads and open files do not grow with the image sets."""
+    import threading
+
+    from synthcompose.manifest import load_manifest
+    from synthcompose.pipeline import Pipeline
+
+    root = tmp_path / "cs"
+    ids = make_sample(root, count=2, width=256, height=128, seed=3)
+    manifest = load_manifest(write_manifest(tmp_path / "m.json", root, tmp_path / "out",
+                                            placement={"distance": [5, 25], "min_visible_pixels": 20},
+                                            lighting={"mode": "fixed", "camera_match": False}))
+
+    def rss_mb() -> float:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * resource.getpagesize() / 2**20
+
+    samples = []
+    with Pipeline(manifest) as pipe:
+        for i, outcome in enumerate(pipe.stream(ids[i % 2] for i in range(200))):
+            assert outcome.status in ("done", "skipped"), outcome.reason
+            if i % 40 == 39:
+                samples.append((rss_mb(), len(os.listdir("/proc/self/fd")), threading.active_count()))
+    rss, fds, threads = zip(*samples)
+    assert max(fds) == min(fds) and max(threads) == min(threads), samples
+    assert rss[-1] - rss[1] < 25, rss  # MB, after warm-up
+    assert threading.active_count() == threads[0] - 2  # the reading and writing threads are gone
