@@ -296,36 +296,10 @@ def test_kill_9_at_20_random_moments_then_resume_is_byte_identical(tmp_path):
             assert ident.path(out, kind).read_bytes() == ident.path(ref, kind).read_bytes(), (ident, kind)
 
 
-def test_memory_and_open_files_stay_flat_over_1000_image_sets(tmp_path):
-    from synthcompose.manifest import load_manifest
-    from synthcompose.pipeline import Pipeline
-
-    root = tmp_path / "cs"
-    ids = make_sample(root, count=2, width=256, height=128, seed=3)
-    manifest = load_manifest(write_manifest(tmp_path / "m.json", root, tmp_path / "out",
-                                            placement={"distance": [5, 25], "min_visible_pixels": 20},
-                                            lighting={"mode": "fixed", "camera_match": False}))
-
-    def rss_mb() -> float:
-        with open("/proc/self/statm") as fh:
-            return int(fh.read().split()[1]) * resource.getpagesize() / 2**20
-
-    samples = []
-    with Pipeline(manifest) as pipe:
-        for i in range(1000):
-            outcome = pipe.process(ids[i % 2])
-            assert outcome.status in ("done", "skipped"), outcome.reason
-            if i % 100 == 99:
-                samples.append((rss_mb(), len(os.listdir("/proc/self/fd"))))
-    rss = [s[0] for s in samples]
-    fds = [s[1] for s in samples]
-    assert max(fds) == min(fds), fds
-    assert rss[-1] - rss[1] < 25, rss  # MB, after warm-up: no growth per image set
-
-
-def test_streaming_keeps_memory_threads_and_open_files_flat(tmp_path):
-    """Pipeline.stream (three image sets in the works, on threads) over 200 image sets: resident
-    memory, threads and open files do not grow with the image sets."""
+@pytest.mark.parametrize("streamed, count", [(False, 1000), (True, 200)])
+def test_memory_threads_and_open_files_stay_flat(tmp_path, streamed, count):
+    """Resident memory, threads and open files do not grow with the image sets: one image set
+    after the other (Pipeline.process) or three in the works on threads (Pipeline.stream)."""
     import threading
 
     from synthcompose.manifest import load_manifest
@@ -342,12 +316,15 @@ def test_streaming_keeps_memory_threads_and_open_files_flat(tmp_path):
             return int(fh.read().split()[1]) * resource.getpagesize() / 2**20
 
     samples = []
+    threads_before = threading.active_count()
     with Pipeline(manifest) as pipe:
-        for i, outcome in enumerate(pipe.stream(ids[i % 2] for i in range(200))):
+        todo = (ids[i % 2] for i in range(count))
+        outcomes = pipe.stream(todo) if streamed else map(pipe.process, todo)
+        for i, outcome in enumerate(outcomes):
             assert outcome.status in ("done", "skipped"), outcome.reason
-            if i % 40 == 39:
+            if i % (count // 10) == count // 10 - 1:
                 samples.append((rss_mb(), len(os.listdir("/proc/self/fd")), threading.active_count()))
     rss, fds, threads = zip(*samples)
     assert max(fds) == min(fds) and max(threads) == min(threads), samples
-    assert rss[-1] - rss[1] < 25, rss  # MB, after warm-up
-    assert threading.active_count() == threads[0] - 2  # the reading and writing threads are gone
+    assert rss[-1] - rss[1] < 25, rss  # MB, after warm-up: no growth per image set
+    assert threading.active_count() == threads_before  # the stream's threads are gone
