@@ -198,8 +198,8 @@ class _GpuModel:
     The passes that need no per-part state (shadow maps, ids, the sample fill) draw the whole
     model at once; the lit pass draws :attr:`ranges`, one per run of consecutive parts with
     the same maps (textures): parts without maps run together, in the file's order, so the
-    pixels are those of a draw per part, with a handful of draws instead of one per part
-    (llvmpipe pays a fixed cost per draw). Tangents (``in_tangent``, for normal maps) get a
+    pixels are those of a draw per part, with a handful of draws instead of one per part (4
+    instead of 69 for the bundled car). Tangents (``in_tangent``, for normal maps) get a
     buffer of their own, zeros for parts without a map, only when some part has one.
     """
 
