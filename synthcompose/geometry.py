@@ -60,13 +60,18 @@ class PointCloud:
         return len(self.labels)
 
 
-def back_project(depth: np.ndarray, camera: Camera, v: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3) float32 optical and vehicle-frame points of pixels (rows ``v``, columns ``u``)
-    with finite depth (pinhole model)."""
+def pinhole(depth: np.ndarray, camera: Camera, v: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(N,) float32 optical-frame x, y, z of pixels (rows ``v``, columns ``u``) (pinhole model)."""
     z = depth[v, u]
     x = (u.astype(np.float32) - np.float32(camera.u0)) * z / np.float32(camera.fx)
     y = (v.astype(np.float32) - np.float32(camera.v0)) * z / np.float32(camera.fy)
-    optical = np.stack([x, y, z], axis=1)
+    return x, y, z
+
+
+def back_project(depth: np.ndarray, camera: Camera, v: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) float32 optical and vehicle-frame points of pixels (rows ``v``, columns ``u``)
+    with finite depth (pinhole model)."""
+    optical = np.stack(pinhole(depth, camera, v, u), axis=1)
     m = camera.vehicle_from_optical.astype(np.float32)
     return optical, optical @ m[:3, :3].T + m[:3, 3]
 

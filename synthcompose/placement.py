@@ -32,7 +32,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
-from .geometry import Frame, back_project
+from .geometry import Frame, back_project, pinhole
 from .labels import label_id
 
 #: default allowed surfaces per Cityscapes class
@@ -416,9 +416,7 @@ class _Candidates:
         cam = self.camera = frame.camera
         self.depth = frame.depth
         v, u = np.nonzero(label_mask(allowed_ids)[frame.label_ids] & np.isfinite(frame.depth))
-        z = frame.depth[v, u]
-        x = (u.astype(np.float32) - np.float32(cam.u0)) * z / np.float32(cam.fx)
-        y = (v.astype(np.float32) - np.float32(cam.v0)) * z / np.float32(cam.fy)
+        x, y, z = pinhole(frame.depth, cam, v, u)
         m = cam.vehicle_from_optical.astype(np.float32)
         ground_x = x * m[0, 0] + y * m[0, 1] + z * m[0, 2] + (m[0, 3] - np.float32(cam.x))
         ground_y = x * m[1, 0] + y * m[1, 1] + z * m[1, 2] + (m[1, 3] - np.float32(cam.y))
