@@ -247,6 +247,7 @@ class Composer:
         fbo.use()
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.vao.render(moderngl.TRIANGLES, vertices=3)
+        gl.wait()
         h, w = roi.height, roi.width
         rgb = np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]
         label = np.frombuffer(outs[1].read(), np.uint32).reshape(h, w)

@@ -6,9 +6,11 @@ driver where present, Mesa llvmpipe elsewhere), overridable by argument or by th
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import re
 from importlib import resources
+from typing import Callable
 
 import moderngl
 import numpy as np
@@ -34,6 +36,28 @@ def create_context(backend: str | None = None, device: int | None = None) -> mod
     except Exception as exc:
         raise GLContextError(f"cannot create an OpenGL context with the {backend} backend ({exc}); "
                              f"{_INSTALL_HINT}") from None
+
+
+def _gil_free_finish() -> Callable[[], None] | None:
+    """``glFinish`` called through ctypes, which releases Python's GIL for the call (moderngl
+    holds it through every call, waits included), or None where no GL library exports it.
+    The EGL loader's address works for any current context; libOpenGL/libGL (glvnd) dispatch
+    to the current context too."""
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+        egl.eglGetProcAddress.restype = ctypes.c_void_p
+        egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+        address = egl.eglGetProcAddress(b"glFinish")
+        if address:
+            return ctypes.CFUNCTYPE(None)(address)
+    except (OSError, AttributeError):
+        pass
+    for name in ("libOpenGL.so.0", "libGL.so.1"):
+        try:
+            return getattr(ctypes.CDLL(name), "glFinish")
+        except (OSError, AttributeError):
+            continue
+    return None
 
 
 def shader_source(name: str, _depth: int = 0) -> str:
@@ -63,6 +87,14 @@ class GLContext:
         self._owned: list = []
         # bound before a framebuffer is released, so no deleted framebuffer stays current
         self._idle_fbo = self.own(self.ctx.framebuffer([self.own(self.ctx.renderbuffer((1, 1)))]))
+        self._finish = _gil_free_finish() or self.ctx.finish
+
+    def wait(self) -> None:
+        """Wait for the GL work queued so far without holding Python's GIL, so that other
+        threads run meanwhile (Pipeline.stream). Call it before a call that waits for the
+        results (a texture read, a blit from a framebuffer just drawn): moderngl would wait
+        holding the GIL, and Mesa's llvmpipe rasterises at that point."""
+        self._finish()
 
     @classmethod
     def wrap(cls, ctx: moderngl.Context) -> "GLContext":

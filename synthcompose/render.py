@@ -114,7 +114,7 @@ class RenderPasses:
 
     def read(self, name: str) -> np.ndarray:
         """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id``."""
-        self.gl.activate()
+        self.gl.activate().wait()
         tex = self.textures[name]
         dtype = np.uint32 if tex.dtype == "u4" else np.float32
         arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
@@ -413,12 +413,14 @@ class Renderer:
             ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             prog["u_shadows"].value = True
             self._draw_lit(objects, lighting, objects_too=True)
+            gl.wait()
             ctx.copy_framebuffer(resolve, ms_fbo)
         # Ir: the planes alone, unshadowed (cheap: shaded per sample as it is)
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         prog["u_shadows"].value = False
         self._draw_lit(objects, lighting, objects_too=False)
+        gl.wait()
         ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
 
         # integer id + depth at pixel centres
@@ -491,6 +493,7 @@ class Renderer:
         for obj in objects:
             fill["u_model"].write(_gl(obj.vehicle_from_object))
             self._gpu_model(obj.model).draw("fill")
+        gl.wait()
         ctx.copy_framebuffer(resolve, ms_fbo)
         for obj in (objects_fbo, planes_fbo, others_fbo, centre_depth, *centre, object_col, object_key, plane_col,
                     other_col, other_key):
