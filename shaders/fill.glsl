@@ -3,7 +3,8 @@
 // its centre (objects over their planes; the planes alone); this pass rasterises the same
 // geometry at 4 samples per pixel and gives every sample its pixel's colour - the colour MSAA
 // gives on a GPU - so that the costly lighting runs once per pixel, not once per sample (Mesa's
-// llvmpipe shades every sample). Outputs as lit.glsl's.
+// llvmpipe shades every sample). Outputs as lit.glsl's. With PLANE defined: the planes' samples
+// (a variant of its own, as llvmpipe runs both sides of a branch on a uniform).
 //
 // With NEIGHBOURS defined: a 1x full-frame pass before it that finds, per pixel, the colour of
 // the object's other material nearby (the centre shows one material at most; a sample of the
@@ -62,7 +63,6 @@ void main() {
 #else
 in float v_depth;
 in vec4 v_key;                   // this fragment's material
-uniform bool u_is_plane;
 uniform sampler2D u_plane_col;   // the planes alone, lit and shadowed, at the pixel centre
 uniform sampler2D u_other_col;   // the NEIGHBOURS pass
 uniform sampler2D u_other_key;
@@ -91,20 +91,20 @@ vec3 object_colour(ivec2 p) {
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
-    if (u_is_plane) {
-        out_color = vec4(texelFetch(u_plane_col, p, 0).rgb, 1.0);
-        out_alpha = 0.0;
-        out_odepth = 0.0;
-        out_plane = vec2(v_depth, 1.0);
-        out_object = vec4(0.0);
-    } else {
-        vec3 c = object_colour(p);
-        out_color = vec4(c, 1.0);
-        out_alpha = 1.0;
-        out_odepth = v_depth;
-        out_plane = vec2(0.0);
-        out_object = vec4(c, 1.0);
-    }
+#if defined PLANE
+    out_color = vec4(texelFetch(u_plane_col, p, 0).rgb, 1.0);
+    out_alpha = 0.0;
+    out_odepth = 0.0;
+    out_plane = vec2(v_depth, 1.0);
+    out_object = vec4(0.0);
+#else
+    vec3 c = object_colour(p);
+    out_color = vec4(c, 1.0);
+    out_alpha = 1.0;
+    out_odepth = v_depth;
+    out_plane = vec2(0.0);
+    out_object = vec4(c, 1.0);
+#endif
 }
 #endif
 #endif

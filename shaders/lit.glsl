@@ -1,6 +1,10 @@
 #version 330 core
 // Lit pass: the inserted objects and their local ground planes, in linear light.
 // Vertex data in the object frame; u_model: vehicle <- object; u_view: optical <- vehicle.
+// The fragment shader comes in variants (render.py compiles each one it draws with), so that
+// each runs only its own code: Mesa's llvmpipe runs both sides of a branch on a uniform.
+//   PLANE       a ground plane; NO_SHADOWS with it: the plane alone (Ir), nothing casts shadows
+//   otherwise   an object part; TEXTURE: it has a base colour texture, NORMAL_MAP: a normal map
 #if defined VERTEX_SHADER
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -42,11 +46,7 @@ in vec2 v_material;
 in vec4 v_tangent;              // (tangent along +u, handedness): glTF's TANGENT (models.py)
 in float v_depth;
 flat in float v_ground_z;
-uniform bool u_is_plane;        // ground plane (Ir / Irpv) or object
-uniform bool u_shadows;         // false for Ir: the plane alone, nothing casts shadows
-uniform bool u_has_texture;
-uniform sampler2D u_texture;    // sRGB base colour
-uniform bool u_has_normal_map;
+uniform sampler2D u_texture;    // sRGB base colour (TEXTURE)
 uniform sampler2D u_normal_map; // tangent-space normals (linear), glTF's normalTexture
 uniform float u_normal_scale;   // its scale: multiplies the map's x and y
 uniform vec3 u_plane_albedo;    // linear; used when u_plane_from_photo is false
@@ -137,52 +137,68 @@ void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_pos - v_world);
     if (dot(n, v) < 0.0) n = -n;   // two-sided
-    if (u_has_normal_map && !u_is_plane) n = normal_from_map(n, dot(n, v_normal) < 0.0 ? -1.0 : 1.0);
-    vec3 albedo;
-    float metallic, roughness;
-    // the sun that reaches this point: the object's, or on the plane the real ground's own
-    // (so a shadow thrown onto ground already in a real shadow adds nothing, and overlapping
-    // planes shade alike)
-    float sun_scale = u_sun_scale;
-    if (u_is_plane && u_has_sun_mask) sun_scale = texelFetch(u_sun_mask, ivec2(gl_FragCoord.xy), 0).r;
-    if (u_is_plane) {
-        metallic = 0.0; roughness = 1.0;
-        albedo = u_plane_albedo;
-        if (u_plane_from_photo) {
-            // projective texturing: the plane alone (Ir) reproduces the photo exactly, so
-            // R + Irpv - Ir = R * (shadowed / unshadowed light): shadows darken the real road
-            vec3 unshadowed = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) + u_sun_rgb * sun_scale * max(dot(n, u_sun_dir), 0.0);
-            albedo = srgb_to_linear(texelFetch(u_photo, ivec2(gl_FragCoord.xy), 0).rgb) / max(unshadowed, vec3(1e-4));
-        }
-    } else {
-        albedo = v_color.rgb;
-        if (u_has_texture) albedo *= srgb_to_linear(texture(u_texture, v_uv).rgb);
-        metallic = v_material.x; roughness = clamp(v_material.y, 0.05, 1.0);
-    }
-    float sun_vis = u_shadows ? sun_visibility(v_world) : 1.0;
-    float sky_vis = 1.0;
-    if (u_shadows && u_is_plane) sky_vis = mix(0.35, 1.0, sky_visibility(v_world));
     float ndl = max(dot(n, u_sun_dir), 0.0);
+#if defined PLANE
+    // the sun that reaches the plane: the real ground's own where u_sun_mask is given (so a
+    // shadow thrown onto ground already in a real shadow adds nothing, and overlapping planes
+    // shade alike)
+    float sun_scale = u_sun_scale;
+    if (u_has_sun_mask) sun_scale = texelFetch(u_sun_mask, ivec2(gl_FragCoord.xy), 0).r;
+    vec3 albedo = u_plane_albedo;
+    if (u_plane_from_photo) {
+        // projective texturing: the plane alone (Ir) reproduces the photo exactly, so
+        // R + Irpv - Ir = R * (shadowed / unshadowed light): shadows darken the real road
+        vec3 unshadowed = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) + u_sun_rgb * sun_scale * max(dot(n, u_sun_dir), 0.0);
+        albedo = srgb_to_linear(texelFetch(u_photo, ivec2(gl_FragCoord.xy), 0).rgb) / max(unshadowed, vec3(1e-4));
+    }
+#if defined NO_SHADOWS
+    float sun_vis = 1.0;
+    float sky_vis = 1.0;
+#else
+    float sun_vis = sun_visibility(v_world);
+    float sky_vis = mix(0.35, 1.0, sky_visibility(v_world));
+#endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
     vec3 sun_rgb = u_sun_rgb * sun_scale;
+    vec3 color = albedo * (ambient + sun_rgb * ndl * sun_vis);
+    out_color = vec4(color, 1.0);
+    out_alpha = 0.0;
+    out_odepth = 0.0;
+    out_plane = vec2(v_depth, 1.0);
+    out_object = vec4(0.0);
+    out_key = vec4(-1.0);
+#else
+#if defined NORMAL_MAP
+    n = normal_from_map(n, dot(n, v_normal) < 0.0 ? -1.0 : 1.0);
+    ndl = max(dot(n, u_sun_dir), 0.0);
+#endif
+    vec3 albedo = v_color.rgb;
+#if defined TEXTURE
+    albedo *= srgb_to_linear(texture(u_texture, v_uv).rgb);
+#endif
+    float metallic = v_material.x;
+    float roughness = clamp(v_material.y, 0.05, 1.0);
+    float sun_vis = sun_visibility(v_world);
+    vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z);
+    vec3 sun_rgb = u_sun_rgb * u_sun_scale;
     vec3 diffuse = albedo * (1.0 - metallic) * (ambient + sun_rgb * ndl * sun_vis);
     // glossy part: Schlick Fresnel, sky/ground reflection and a Blinn-Phong sun highlight
     vec3 f0 = mix(vec3(0.04), albedo, metallic);
     float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
     vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - ndv, 5.0);
     vec3 r = reflect(-v, n);
-    vec3 env = u_is_plane ? vec3(0.0) : environment(v_world, r, roughness);
+    vec3 env = environment(v_world, r, roughness);
     float gloss = 1.0 - roughness;
     vec3 h = normalize(u_sun_dir + v);
     float shininess = mix(4.0, 512.0, gloss * gloss);
     vec3 spec = sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
     vec3 color = diffuse + fresnel * (env * gloss + spec * gloss);
-    if (u_is_plane) color = diffuse;
     out_color = vec4(color, 1.0);
-    out_alpha = u_is_plane ? 0.0 : 1.0;
-    out_odepth = u_is_plane ? 0.0 : v_depth;
-    out_plane = u_is_plane ? vec2(v_depth, 1.0) : vec2(0.0);
-    out_object = u_is_plane ? vec4(0.0) : vec4(color, 1.0);
-    out_key = u_is_plane ? vec4(-1.0) : v_color;
+    out_alpha = 1.0;
+    out_odepth = v_depth;
+    out_plane = vec2(0.0);
+    out_object = vec4(color, 1.0);
+    out_key = v_color;
+#endif
 }
 #endif

@@ -173,6 +173,23 @@ def _gl(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
 
 
+#: the vertex buffer's attributes in order, with their float counts (models and the plane)
+VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_color", 4), ("in_material", 2))
+
+
+def _layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -> tuple:
+    """A vertex_array content entry for ``buffer`` holding ``attributes`` ((name, floats), in
+    order): the ones ``prog`` reads, the others skipped (a variant may not read them all)."""
+    parts, names = [], []
+    for name, floats in attributes:
+        if prog.get(name, None) is not None:
+            parts.append(f"{floats}f")
+            names.append(name)
+        else:
+            parts.append(f"{4 * floats}x")
+    return (buffer, " ".join(parts), *names)
+
+
 @dataclass(frozen=True)
 class _GpuMaps:
     """The textures of one part: sRGB base colour and linear tangent-space normal map."""
@@ -219,20 +236,12 @@ class _GpuModel:
                 tangents.append(np.zeros((len(part.positions), 4), np.float32) if maps.normal is None
                                 else np.asarray(part.tangents, np.float32))
             maps_of.append(maps)
-        vbo = gl.own(gl.ctx.buffer(np.concatenate(datas).tobytes()))
-        ibo = gl.own(gl.ctx.buffer(np.concatenate(indices).tobytes()))
-        tbo = gl.own(gl.ctx.buffer(np.concatenate(tangents).tobytes())) if has_tangents else None
-        self.vaos: dict[str, moderngl.VertexArray] = {}
-        for name, prog in programs.items():
-            if name == "lit":
-                fmt = [(vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv", "in_color", "in_material")]
-                if tbo is not None:
-                    fmt.append((tbo, "4f", "in_tangent"))
-            elif name == "fill":
-                fmt = [(vbo, "3f 20x 4f 8x", "in_position", "in_color")]
-            else:
-                fmt = [(vbo, "3f 44x", "in_position")]
-            self.vaos[name] = gl.own(gl.ctx.vertex_array(prog, fmt, index_buffer=ibo, index_element_size=4))
+        self._gl = gl
+        self._vbo = gl.own(gl.ctx.buffer(np.concatenate(datas).tobytes()))
+        self._ibo = gl.own(gl.ctx.buffer(np.concatenate(indices).tobytes()))
+        self._tbo = gl.own(gl.ctx.buffer(np.concatenate(tangents).tobytes())) if has_tangents else None
+        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+        self._programs = programs
         #: (first index, index count, maps) of each lit draw
         self.ranges: list[tuple[int, int, _GpuMaps]] = []
         start = 0
@@ -245,9 +254,19 @@ class _GpuModel:
                 self.ranges.append((start, len(idx), maps))
             start += len(idx)
 
+    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        """The vertex array of this model for ``prog`` (made on first use)."""
+        if prog not in self._vaos:
+            fmt = [_layout(prog, self._vbo, VERTEX_LAYOUT)]
+            if self._tbo is not None and prog.get("in_tangent", None) is not None:
+                fmt.append(_layout(prog, self._tbo, (("in_tangent", 4),)))
+            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
+                                                                      index_element_size=4))
+        return self._vaos[prog]
+
     def draw(self, name: str) -> None:
-        """The whole model with program ``name`` (its uniforms set)."""
-        self.vaos[name].render(moderngl.TRIANGLES)
+        """The whole model with the renderer's program ``name`` (its uniforms set)."""
+        self.vao(self._programs[name]).render(moderngl.TRIANGLES)
 
 
 class Renderer:
@@ -267,9 +286,11 @@ class Renderer:
                 else "sample"
         self.shading = shading
         ctx = gl.ctx
-        self.programs = {"lit": gl.program("lit"), "id": gl.program("id"), "depth": gl.program("depth")}
-        if shading == "pixel":  # fill.glsl's two programs (models get "fill" vertex arrays too)
+        self.programs = {"id": gl.program("id"), "depth": gl.program("depth")}
+        self._lit_uniforms: dict[str, object] = {}  # what every lit variant takes in this render
+        if shading == "pixel":  # fill.glsl's programs: object samples, plane samples, neighbours
             self.programs["fill"] = gl.program("fill")
+            self._fill_plane = gl.program("fill", PLANE=1)
             self._neighbours = gl.program("fill", NEIGHBOURS=1)
             self._frame_vao = gl.own(ctx.vertex_array(self._neighbours, []))  # one full-frame triangle
         self._models: dict[str, _GpuModel] = {}
@@ -289,19 +310,40 @@ class Renderer:
                                 np.zeros((4, 2))], axis=1).astype(np.float32)
         self._plane_vbo = gl.own(ctx.buffer(pdata.tobytes()))
         self._plane_ibo = gl.own(ctx.buffer(np.array([0, 1, 2, 0, 2, 3], np.uint32).tobytes()))
-        self._plane_vao = gl.own(ctx.vertex_array(
-            self.programs["lit"], [(self._plane_vbo, "3f 3f 2f 4f 2f", "in_position", "in_normal", "in_uv",
-                                    "in_color", "in_material")], index_buffer=self._plane_ibo,
-            index_element_size=4))
-        if shading == "pixel":
-            self._plane_vao_fill = gl.own(ctx.vertex_array(
-                self.programs["fill"], [(self._plane_vbo, "3f 20x 4f 8x", "in_position", "in_color")],
-                index_buffer=self._plane_ibo, index_element_size=4))
+        self._plane_vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
 
     def _gpu_model(self, model: Model) -> _GpuModel:
         if model.key not in self._models:
             self._models[model.key] = _GpuModel(self.gl, model, self.programs)
         return self._models[model.key]
+
+    def _lit(self, plane: bool, shadows: bool = True, maps: "_GpuMaps | None" = None) -> moderngl.Program:
+        """The lit.glsl variant for a ground plane (``shadows`` False: Ir) or for object parts
+        with ``maps``, with this render's uniforms (:attr:`_lit_uniforms`) set."""
+        defines = {"PLANE": 1} if plane else {}
+        if plane and not shadows:
+            defines["NO_SHADOWS"] = 1
+        if maps is not None and maps.base is not None:
+            defines["TEXTURE"] = 1
+        if maps is not None and maps.normal is not None:
+            defines["NORMAL_MAP"] = 1
+        prog = self.gl.program("lit", **defines)
+        for name, value in self._lit_uniforms.items():
+            uniform = prog.get(name, None)  # a variant may not use it
+            if uniform is None:
+                continue
+            if isinstance(value, bytes):
+                uniform.write(value)
+            else:
+                uniform.value = value
+        return prog
+
+    def _plane_vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        if prog not in self._plane_vaos:
+            self._plane_vaos[prog] = self.gl.own(self.gl.ctx.vertex_array(
+                prog, [_layout(prog, self._plane_vbo, VERTEX_LAYOUT)], index_buffer=self._plane_ibo,
+                index_element_size=4))
+        return self._plane_vaos[prog]
 
     # ---------------------------------------------------------------- shadows
     def _light_matrices(self, objects: Sequence[RenderObject], lighting: Lighting):
@@ -369,34 +411,26 @@ class Renderer:
         resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]]))
         resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
 
-        prog = self.programs["lit"]
-        prog["u_view"].write(_gl(view))
-        prog["u_proj"].write(_gl(proj))
-        prog["u_camera_pos"].value = tuple(camera.position)
-        prog["u_sun_dir"].value = tuple(lighting.sun_direction)
-        prog["u_sun_rgb"].value = tuple(lighting.sun_rgb)
-        prog["u_sky_rgb"].value = tuple(lighting.sky_rgb)
-        prog["u_ground_rgb"].value = tuple(lighting.ground_rgb)
-        prog["u_sun_matrix"].write(_gl(_BIAS @ sun_mat))
-        prog["u_sky_matrix"].write(_gl(_BIAS @ sky_mat))
-        prog["u_sky_radius"].value = 0.5 / (2 * half)  # 0.5 m in map units
-        prog["u_texture"].value = 0
-        prog["u_normal_map"].value = 6
-        prog["u_sun_map"].value = 1
-        prog["u_sky_map"].value = 2
-        prog["u_photo"].value = 3
-        prog["u_plane_from_photo"].value = photo is not None
-        # reflections sample the full photo (see _environment)
-        prog["u_env"].value = 4
-        prog["u_has_env"].value = photo is not None
+        uniforms: dict[str, object] = {
+            "u_view": _gl(view), "u_proj": _gl(proj), "u_camera_pos": tuple(camera.position),
+            "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
+            "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
+            "u_sun_matrix": _gl(_BIAS @ sun_mat), "u_sky_matrix": _gl(_BIAS @ sky_mat),
+            "u_sky_radius": 0.5 / (2 * half),  # 0.5 m in map units
+            "u_texture": 0, "u_normal_map": 6, "u_sun_map": 1, "u_sky_map": 2, "u_photo": 3,
+            "u_plane_from_photo": photo is not None,
+            # reflections sample the full photo (see _environment)
+            "u_env": 4, "u_has_env": photo is not None,
+            "u_sun_mask": 5, "u_has_sun_mask": sun_mask is not None,
+        }
         if photo is not None:
-            prog["u_env_view"].write(_gl(camera.optical_from_vehicle))
-            prog["u_env_k"].value = (camera.fx / camera.width, camera.fy / camera.height,
-                                     (camera.u0 + 0.5) / camera.width, (camera.v0 + 0.5) / camera.height)
-            prog["u_env_lods"].value = float(math.log2(max(tex["env"].width, tex["env"].height)))
+            uniforms.update({
+                "u_env_view": _gl(camera.optical_from_vehicle),
+                "u_env_k": (camera.fx / camera.width, camera.fy / camera.height,
+                            (camera.u0 + 0.5) / camera.width, (camera.v0 + 0.5) / camera.height),
+                "u_env_lods": float(math.log2(max(tex["env"].width, tex["env"].height)))})
+        self._lit_uniforms = uniforms
         (tex["env"] if photo is not None else self._blank).use(4)
-        prog["u_sun_mask"].value = 5
-        prog["u_has_sun_mask"].value = sun_mask is not None
         (tex["sun_mask"] if sun_mask is not None else self._blank).use(5)
         self.shadow_maps[0][0].use(1)
         self.shadow_maps[1][0].use(2)
@@ -411,15 +445,13 @@ class Renderer:
         else:
             ms_fbo.use()
             ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            prog["u_shadows"].value = True
             self._draw_lit(objects, lighting, objects_too=True)
             gl.wait()
             ctx.copy_framebuffer(resolve, ms_fbo)
         # Ir: the planes alone, unshadowed (cheap: shaded per sample as it is)
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        prog["u_shadows"].value = False
-        self._draw_lit(objects, lighting, objects_too=False)
+        self._draw_lit(objects, lighting, objects_too=False, shadows=False)
         gl.wait()
         ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
 
@@ -447,7 +479,6 @@ class Renderer:
                        resolve: moderngl.Framebuffer) -> None:
         """The lit pass with the light shaded once per pixel (``shading="pixel"``)."""
         gl, ctx = self.gl, self.gl.ctx
-        prog = self.programs["lit"]
         # the light, shaded once per pixel at its centre (1x): the objects over their planes
         # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
         # objects' shadows; then fill.glsl rasterises the same geometry at SAMPLES per pixel
@@ -458,7 +489,6 @@ class Renderer:
         object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
         objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
         planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
-        prog["u_shadows"].value = True
         for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
             fbo.use()
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
@@ -477,19 +507,20 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST)
         self._frame_vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.enable(moderngl.DEPTH_TEST)
-        fill = self.programs["fill"]
-        fill["u_view"].write(_gl(view))
-        fill["u_proj"].write(_gl(proj))
+        fill, fill_plane = self.programs["fill"], self._fill_plane
+        for prog in (fill, fill_plane):
+            prog["u_view"].write(_gl(view))
+            prog["u_proj"].write(_gl(proj))
+            for name in textures:
+                if prog.get(name, None) is not None:  # the plane variant reads u_plane_col alone
+                    prog[name].value = units[name]
         for name, texture in textures.items():
-            fill[name].value = units[name]
             texture.use(units[name])
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        fill["u_is_plane"].value = True
         for obj in objects:
-            fill["u_model"].write(_gl(obj.plane_matrix(lighting)))
-            self._plane_vao_fill.render(moderngl.TRIANGLES)
-        fill["u_is_plane"].value = False
+            fill_plane["u_model"].write(_gl(obj.plane_matrix(lighting)))
+            self._plane_vao(fill_plane).render(moderngl.TRIANGLES)
         for obj in objects:
             fill["u_model"].write(_gl(obj.vehicle_from_object))
             self._gpu_model(obj.model).draw("fill")
@@ -499,35 +530,37 @@ class Renderer:
                     other_col, other_key):
             gl.free(obj)
 
-    def _draw_lit(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool) -> None:
-        """Draw the objects' ground planes and (``objects_too``) the objects over them with the
-        lit program, whose uniforms render() has set, into the bound framebuffer."""
-        prog = self.programs["lit"]
-        prog["u_is_plane"].value = True
-        prog["u_has_texture"].value = False
-        prog["u_has_normal_map"].value = False
+    def _draw_lit(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
+                  shadows: bool = True) -> None:
+        """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
+        (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
+        Each run of parts with the same maps is drawn with the variant for those maps (_lit)."""
+        prog = self._lit(plane=True, shadows=shadows)
+        vao = self._plane_vao(prog)
         for obj in objects:
             prog["u_model"].write(_gl(obj.plane_matrix(lighting)))
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
-            self._plane_vao.render(moderngl.TRIANGLES)
+            vao.render(moderngl.TRIANGLES)
         if not objects_too:
             return
         # objects drawn over their planes
-        prog["u_is_plane"].value = False
+        variants: dict[tuple[bool, bool], moderngl.Program] = {}
         for obj in objects:
-            prog["u_model"].write(_gl(obj.vehicle_from_object))
-            prog["u_sun_scale"].value = float(obj.sun_visibility)
             gpu = self._gpu_model(obj.model)
             for first, count, maps in gpu.ranges:
-                prog["u_has_texture"].value = maps.base is not None
+                key = (maps.base is not None, maps.normal is not None)
+                if key not in variants:
+                    variants[key] = self._lit(plane=False, maps=maps)
+                prog = variants[key]
+                prog["u_model"].write(_gl(obj.vehicle_from_object))
+                prog["u_sun_scale"].value = float(obj.sun_visibility)
                 if maps.base is not None:
                     maps.base.use(0)
-                prog["u_has_normal_map"].value = maps.normal is not None
                 if maps.normal is not None:
                     maps.normal.use(6)
                     prog["u_normal_scale"].value = maps.normal_scale
-                gpu.vaos["lit"].render(moderngl.TRIANGLES, vertices=count, first=first)
+                gpu.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def _environment(self, photo: np.ndarray) -> moderngl.Texture:
         """The photo at half size as a mipmapped sRGB texture (reads linear): what glossy paint
