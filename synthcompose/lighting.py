@@ -22,7 +22,9 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   objects, which stand on that ground, receive - unless all the ground in view is lit: the
   shading pairs show a clear sun (:data:`LIT_GROUND_MIN_GAIN`) whose best direction (within
   :data:`LIT_GROUND_MARGIN`) the geometry says leaves the ground samples it can tell about lit
-  (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known). Then the sun
+  (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known), or, where the
+  geometry cannot tell (the sun behind the camera), whose sunlit pairs reach down to the ground
+  (:data:`LIT_PAIRS_LOW`: the sun reaches the feet of the walls and cars in view). Then the sun
   is that direction and the sky's share the pairs' fit.
 * **shading of surface pairs** (the sun's direction): pairs of nearby cells of one class on
   the two faces of a convex edge (car tops and sides, building corners, kerbs, poles), of one
@@ -73,6 +75,9 @@ MIN_TWO_LEVEL_GAIN, MAX_SHADOW_LOG_RATIO = 0.05, -0.35
 #: without shadows on the ground, a sun needs the shading to gain this many nats per pair, at a
 #: direction that leaves the ground in view lit and scores within the margin of the best one
 LIT_GROUND_MIN_GAIN, LIT_GROUND_MARGIN, LIT_GROUND_KNOWN = 1.0, 0.05, 0.15
+#: where the geometry cannot tell (the sun behind the camera), the ground counts as lit when the
+#: pairs the sun lights reach down to it: the lowest tenth of them below this height (metres)
+LIT_PAIRS_LOW = 0.4
 #: weight of the geometric shadow agreement against the shading cue in the direction's score
 SHADOW_AGREEMENT_WEIGHT = 0.1
 
@@ -658,6 +663,7 @@ class _PairCue:
     label: np.ndarray  # (N,) class of the pair
     rc: np.ndarray  # (N, 4) grid cells (row, col) of both ends
     weight: np.ndarray  # (N,) so that no one object (image region) outweighs the rest
+    z: np.ndarray  # (N,) height (vehicle frame: above the ground under the camera) of the lower end
     terms: dict = field(default_factory=dict)  # direction-free terms of _pair_fit, float32
 
 
@@ -721,7 +727,8 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     n1, n2, y, lab, rc, region, total = (v[keep] for v in (n1, n2, y, lab, rc, region, total))
     kept = np.bincount(region)[region]
     weight = np.minimum(total, PAIRS_PER_REGION) / kept * PAIR_CLASS_WEIGHT[lab]
-    return _PairCue(n1, n2, y, lab, rc, weight)
+    z = np.fmin(g.points[rc[:, 0], rc[:, 1], 2], g.points[rc[:, 2], rc[:, 3], 2])
+    return _PairCue(n1, n2, y, lab, rc, weight, z)
 
 
 PAIRS_PER_REGION = 6
@@ -911,29 +918,60 @@ def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coars
     share, ground ratio), or None. Only where the shading shows a clear sun (gain >=
     :data:`LIT_GROUND_MIN_GAIN`) and its best direction, within :data:`LIT_GROUND_MARGIN`, is one
     for which the geometry predicts none of the ground samples it can tell about (at least
-    :data:`LIT_GROUND_KNOWN` of them) in shadow: then no shadow is expected in view. A best direction that puts the
-    ground in view in shadow means ambient light only (module docstring)."""
+    :data:`LIT_GROUND_KNOWN` of them) in shadow: then no shadow is expected in view. Failing
+    that, one for which the geometry can hardly tell (the sun behind the camera) and sees no
+    shadow, whose sunlit shading pairs reach down to the ground (:func:`_lit_pairs_low`): the
+    sun reaches the feet of what stands in view. A best direction that puts the ground in view
+    in shadow means ambient light only (module docstring)."""
     top = coarse[0][0]
     if top < LIT_GROUND_MIN_GAIN:
         return None
+    margin = [c for c in coarse if c[0] >= max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN)]
 
-    def lit(az: float, el: float) -> bool:
+    def lit(az: float, el: float) -> bool:  # the geometry tells, and sees no shadow
         shadowed, known = shadow.shadowed(az, el)
         return known.mean() >= LIT_GROUND_KNOWN and shadowed[known].mean() <= 0.05
 
-    for gain, az0, el0 in coarse:
-        if gain < max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN):
-            return None
-        if lit(az0, el0):
+    def lit_unseen(az: float, el: float) -> bool:
+        # the geometry cannot tell (the sun behind the camera; no seen sample predicted in
+        # shadow): the sunlit pairs reach down to the ground
+        shadowed, known = shadow.shadowed(az, el)
+        if known.mean() >= LIT_GROUND_KNOWN or (known.any() and shadowed[known].mean() > 0.05):
+            return False
+        return _lit_pairs_low(pairs, none, az, el) <= LIT_PAIRS_LOW
+
+    for test in (lit, lit_unseen):
+        found = next(((gain, az0, el0) for gain, az0, el0 in margin if test(az0, el0)), None)
+        if found is not None:
             break
-    best = (gain, az0, el0)
+    if found is None:
+        return None
+    best = found
+    _, az0, el0 = found
     for az in az0 + np.arange(-10.0, 10.1, 5.0):
         for el in np.clip(el0 + np.arange(-8.0, 8.1, 4.0), 8.0, 85.0):
             gain = _pair_fit(pairs, none, float(az % 360.0), float(el))[0]
-            if gain > best[0] and lit(float(az % 360.0), float(el)):
+            if gain > best[0] and test(float(az % 360.0), float(el)):
                 best = (gain, float(az % 360.0), float(el))
     gain, k, gm = _pair_fit(pairs, none, best[1], best[2])
     return gain, best[1], best[2], k, gm
+
+
+def _lit_pairs_low(pairs: _PairCue, none: np.ndarray, az: float, el: float) -> float:
+    """Height (m) of the lowest tenth of the pairs that the sun from (az, el) lights (its model
+    explains them clearly better than ambient light, and it makes their two ends differ): near 0
+    when the sun reaches the feet of the walls and cars, so the ground around them; higher when
+    the ground in view lies in the shadow of what stands beyond it (inf without such pairs)."""
+    _, k, gm = _pair_fit(pairs, none, az, el)
+    t = pairs.terms
+    i, j = int(np.argmin(np.abs(_KS - k))), int(np.argmin(np.abs(_GAMMAS - gm)))
+    d = _direction(az, el).astype(np.float32)
+    s1 = np.maximum(t["n1"] @ d, 0) / d[2]
+    s2 = np.maximum(t["n2"] @ d, 0) / d[2]
+    ambient = np.log(t["kh1"][i, j] / t["kh2"][i, j])
+    sun = np.log((t["kh1"][i, j] + (1 - k) * s1) / (t["kh2"][i, j] + (1 - k) * s2))
+    lit = (np.abs(sun - ambient) > 0.4) & (_rho(t["y"] - sun) + 0.5 < none)
+    return float(np.quantile(pairs.z[lit], 0.1)) if lit.sum() >= 20 else math.inf
 
 
 def _core_step(cue: _ShadowCue, mix: _Mixture) -> float:

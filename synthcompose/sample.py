@@ -932,8 +932,10 @@ def _sky_rgb(buf: _Buffers, idx: np.ndarray, clouds: np.ndarray) -> np.ndarray:
     return horizon * (1 - f) + zenith * f + clouds.ravel()[idx, None]
 
 
-def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """(H, W, 3) float32 colour 0-255 before noise: albedo x (sky ambient + sun Lambert), haze."""
+def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Generator,
+           sunlit: np.ndarray | None = None) -> np.ndarray:
+    """(H, W, 3) float32 colour 0-255 before noise: albedo x (sky ambient + sun Lambert), haze.
+    With a scene light, ``sunlit`` (H * W bool, when given) receives where the sun reaches."""
     cam = scene.camera
     h, w = cam.height, cam.width
     n_pix = h * w
@@ -967,7 +969,8 @@ def _shade(scene: StreetScene, buf: _Buffers, ego: np.ndarray, rng: np.random.Ge
 
     def lit(idx: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> None:
         if scene.light is not None:  # optional light control (SceneLight)
-            col = _light_shade(scene, albedo, normal, points(idx), sun)
+            col = _light_shade(scene, albedo, normal, points(idx), sun,
+                               None if sunlit is None else (sunlit, idx))
         else:
             light = 0.7 + 0.2 * normal[:, 2] + 0.32 * np.maximum(normal @ sun, 0)
             col = albedo * light[:, None]
@@ -1057,6 +1060,10 @@ def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
                    (the stereo holes of ``disparity`` keep their true depth here)
     disparity    : (H, W) uint16 Cityscapes encoding of ``depth``, 0 on sky, ego and ~2 % holes
     """
+    return _render(scene)
+
+
+def _render(scene: StreetScene, sunlit: np.ndarray | None = None) -> dict[str, np.ndarray]:
     cam = scene.camera
     h, w = cam.height, cam.width
     origin, dirs = _street_rays(scene)
@@ -1090,7 +1097,7 @@ def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
     instance_ids = lut_inst[buf.pid]
 
     rng = np.random.default_rng(scene.noise_seed)
-    rgb = _shade(scene, buf, ego, rng)
+    rgb = _shade(scene, buf, ego, rng, sunlit)
     sigma = 0.45 * w / 2048 + 0.15
     rgb = cv2.GaussianBlur(rgb, (0, 0), sigma)
     rgb += rng.standard_normal((h, w, 3), dtype=np.float32) * np.float32(1.6)
@@ -1102,6 +1109,18 @@ def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
     disparity[rng.random((h, w), dtype=np.float32) < HOLE_FRACTION] = 0
     return {"rgb": rgb8, "label_ids": label_ids, "instance_ids": instance_ids,
             "depth": depth, "disparity": disparity}
+
+
+def render_scene_sunlit(scene: StreetScene) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """:func:`render_scene`'s arrays (the same bytes) and the ground truth of the sun: (H, W)
+    bool, True where the scene light's sun reaches the surface seen (facing it, no box or pole
+    in the way); all False without a sun (no :class:`SceneLight`, or ``sun_fraction`` 0)."""
+    cam = scene.camera
+    sunlit = np.zeros(cam.height * cam.width, bool)
+    arrays = _render(scene, sunlit)
+    if scene.light is None or scene.light.sun_fraction <= 0.0:
+        sunlit[:] = False
+    return arrays, sunlit.reshape(cam.height, cam.width)
 
 
 def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: dict[str, np.ndarray]) -> None:
@@ -1282,8 +1301,10 @@ def _sun_visibility(scene: StreetScene, p: np.ndarray, sun: np.ndarray) -> np.nd
 
 
 def _light_shade(scene: StreetScene, albedo: np.ndarray, normal: np.ndarray, pts: np.ndarray,
-                 sun: np.ndarray) -> np.ndarray:
-    """(N, 3) sRGB 0-255 colour of surface points lit by ``scene.light`` (linear-light shading)."""
+                 sun: np.ndarray, sunlit: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """(N, 3) sRGB 0-255 colour of surface points lit by ``scene.light`` (linear-light shading).
+    ``sunlit`` (bool array, indices of the points in it), when given, receives where the sun
+    reaches the points."""
     light = scene.light
     sky, ground, sun_rgb = (c.astype(np.float32) for c in light.rgb())
     n = normal.astype(np.float32)
@@ -1293,6 +1314,8 @@ def _light_shade(scene: StreetScene, albedo: np.ndarray, normal: np.ndarray, pts
         vis = np.zeros(len(n), np.float32)
         vis[lit_idx] = _sun_visibility(scene, pts[lit_idx] + 0.02 * n[lit_idx], sun.astype(np.float64))
         ndl = ndl * vis
+    if sunlit is not None:
+        sunlit[0][sunlit[1]] = ndl > 0
     up = (0.5 + 0.5 * n[:, 2:3])
     irradiance = ground * (1 - up) + sky * up + sun_rgb * ndl[:, None]
     return (_srgb(_lin(albedo / 255.0) * irradiance) * 255.0).astype(np.float32)
