@@ -25,7 +25,18 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known), or, where the
   geometry cannot tell (the sun behind the camera), whose sunlit pairs reach down to the ground
   (:data:`LIT_PAIRS_LOW`: the sun reaches the feet of the walls and cars in view). Then the sun
-  is that direction and the sky's share the pairs' fit.
+  is that direction and the sky's share the pairs' fit. Failing that, where no ground lies a
+  shadow step above its class's median (it is all lit, or all shadow), the casters' shadows
+  may still show the sun (below).
+* **shadows of the casters in view** (the sun ahead of the camera: the ground is nearly all
+  lit, the shadows of cars, poles and people, falling towards the camera, too small a share for
+  two levels, and no wall faces the sun for the shading): every point of what stands in view
+  (below :data:`CASTER_MAX_HEIGHT` over its ground) throws its shadow, for a sun direction, onto
+  a ground-plan map of the ground in view (log luminance against its class's median; ground
+  under a car's body or at a caster's foot, dark from contact shadow alone, left out). A
+  direction (elevation up to :data:`CASTER_MAX_ELEVATION`) whose shadows land on dark ground
+  (:data:`CASTER_MIN_AGREEMENT`, :data:`CASTER_MIN_DARK`) is the sun; the step down where they
+  land is the shadow's.
 * **shading of surface pairs** (the sun's direction): pairs of nearby cells of one class on
   the two faces of a convex edge (car tops and sides, building corners, kerbs, poles), of one
   chromaticity (so a lamp or a window next to the edge does not count), whose normals (from the
@@ -840,13 +851,14 @@ class _CasterCue:
 
 
 def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
+    d_here = np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y)  # on the ground plan
+    standing = np.isin(g.label, OCCLUDER_IDS)
     ground = g.pure & np.isin(g.label, GROUND_IDS) & np.isfinite(g.points[..., 0]) & (g.lum > 1e-4)
     ground &= g.normals[..., 2] > 0.9
-    ground &= np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y) < 45.0
+    ground &= d_here < 45.0
     # ground seen below something standing that is not clearly nearer than it (under a car's
     # body, at its foot) is dark from contact shadow alone
-    d_here = np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y)
-    caster = np.isin(g.label, OCCLUDER_IDS) & np.isfinite(d_here)
+    caster = standing & np.isfinite(d_here)
     d_above = np.minimum.accumulate(np.where(caster, d_here, np.inf), axis=0)  # nearest above, per column
     under = d_above < d_here + _CAST_NEAR
     ground &= ~under
@@ -881,7 +893,7 @@ def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
     # labels number the zero pixels in raster order (1-based)
     zmap = cz.ravel()[known_idx[np.clip(lab.ravel() - 1, 0, len(known_idx) - 1)]].reshape(cx, cy)
 
-    occ = g.pure & np.isin(g.label, OCCLUDER_IDS) & np.isfinite(g.points[..., 0])
+    occ = g.pure & standing & np.isfinite(g.points[..., 0])
     orr, occ_c = np.nonzero(occ)
     op = g.points[orr, occ_c]
     ox = np.clip(((op[:, 0] - x0) / _CAST_CELL).astype(np.int64) // k, 0, cx - 1)
