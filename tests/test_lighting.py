@@ -69,14 +69,15 @@ def test_sun_azimuth_over_random_sunny_scenes():
     """The sun's direction, over 48 generated scenes with a sun anywhere round the camera (as
     benchmarks/eval_lighting.py measures it): where the ground in view shows cast shadows, or is
     all lit under a clear shading sun, the sun is found, and its azimuth is mostly within 20
-    degrees. Measured on these scenes: found in 26, 21 of them within 20 degrees, median error
-    6 degrees (before the lit-ground sun: found in 18, 15 within 20 degrees, median 5; with the
-    earlier pair weights, kerbs at full weight: 6 of 17, median 30).
+    degrees. Measured on these scenes: found in 30, 25 of them within 20 degrees, median error
+    5 degrees (before the casters' shadows: found in 26, 21 within 20 degrees; before the
+    lit-ground sun: 18, 15; with the earlier pair weights, kerbs at full weight: 6 of 17).
 
     An object placed on ground the sun does not reach is lit by the sky alone, whatever the
     sun's direction; so the scenes that matter most are those whose ground in view the sun
     reaches (more than 10 % of its pixels, from the generator's own visibility): 27 of the 48.
-    Measured: the sun found in 22 of them, 19 within 20 degrees."""
+    Measured: the sun found in 25 of them, 22 within 20 degrees (before the casters' shadows:
+    22, 19)."""
     rng = np.random.default_rng(77)
     errors, found, sunlit_ground = [], 0, []  # the last: (found, error) where the ground is sunlit
     for seed in range(300, 348):
@@ -95,13 +96,13 @@ def test_sun_azimuth_over_random_sunny_scenes():
         if ground.any() and sunlit[ground].mean() > 0.10:
             sunlit_ground.append((est.sunny, error))
     errors = np.array(errors)
-    assert found >= 22
+    assert found >= 26
     assert np.mean(errors <= 20.0) >= 0.7, np.round(errors)
     assert np.median(errors) <= 10.0
     assert len(sunlit_ground) >= 20  # the generator gives scenes of both kinds
     lit_found = [e for f, e in sunlit_ground if f]
-    assert len(lit_found) >= 0.75 * len(sunlit_ground), sunlit_ground
-    assert sum(e <= 20.0 for e in lit_found) >= 0.6 * len(sunlit_ground), sunlit_ground
+    assert len(lit_found) >= 0.85 * len(sunlit_ground), sunlit_ground
+    assert sum(e <= 20.0 for e in lit_found) >= 0.7 * len(sunlit_ground), sunlit_ground
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
