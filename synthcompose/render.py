@@ -401,16 +401,9 @@ class Renderer:
         half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
         self._draw_shadow_maps(objects, (sun_mat, sky_mat))
 
-        # multisampled lit pass -> irpv, alpha, odepth, plane ; then ir
-        ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2, 4)]
-        ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
-        ms_fbo = gl.own(ctx.framebuffer(ms, ms_depth))
-        ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
-        tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
-                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("ir", 4), ("objc", 4))})
-        resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]]))
-        resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
-
+        # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
+        # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
+        # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
         uniforms: dict[str, object] = {
             "u_view": _gl(view), "u_proj": _gl(proj), "u_camera_pos": tuple(camera.position),
             "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
@@ -441,19 +434,30 @@ class Renderer:
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
         if self.shading == "pixel":
-            self._lit_per_pixel(objects, lighting, size, view, proj, ms_fbo, resolve)
+            ms, ms_depth, ms_fbo = self._lit_per_pixel(objects, lighting, size, view, proj)
         else:
+            ms, ms_depth, ms_fbo = self._multisampled(size)
             ms_fbo.use()
             ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self._draw_lit(objects, lighting, objects_too=True)
-            gl.wait()
-            ctx.copy_framebuffer(resolve, ms_fbo)
+        tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
+                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4))})
+        resolve = gl.own(ctx.framebuffer([tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]]))
+        gl.wait()
+        ctx.copy_framebuffer(resolve, ms_fbo)
+        for obj in (resolve, ms_fbo, *ms[1:]):  # the colour target and the depth serve Ir
+            gl.free(obj)
         # Ir: the planes alone, unshadowed (cheap: shaded per sample as it is)
+        ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self._draw_lit(objects, lighting, objects_too=False, shadows=False)
+        tex["ir"] = gl.texture(size, 4, dtype="f4")
+        resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
         gl.wait()
         ctx.copy_framebuffer(resolve_ir, ms_fbo_ir)
+        for obj in (resolve_ir, ms_fbo_ir, ms_depth, ms[0]):
+            gl.free(obj)
 
         # integer id + depth at pixel centres
         tex["id"] = gl.texture(size, 1, dtype="u4")
@@ -470,14 +474,22 @@ class Renderer:
             idp["u_model"].write(_gl(obj.vehicle_from_object))
             idp["u_id"].value = k
             self._gpu_model(obj.model).draw("id")
-        for obj in (id_fbo, id_depth_rb, resolve, resolve_ir, ms_fbo_ir, ms_fbo, ms_depth, *ms):
+        for obj in (id_fbo, id_depth_rb):
             gl.free(obj)
         return RenderPasses(roi, cam, tex, gl)
 
+    def _multisampled(self, size: tuple[int, int]):
+        """The lit pass's 4x multisampled targets (irpv, alpha, odepth, plane, objc: lit.glsl's
+        outputs 0-4), their depth, and a framebuffer of them."""
+        gl, ctx = self.gl, self.gl.ctx
+        ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2, 4)]
+        ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
+        return ms, ms_depth, gl.own(ctx.framebuffer(ms, ms_depth))
+
     def _lit_per_pixel(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
-                       view: np.ndarray, proj: np.ndarray, ms_fbo: moderngl.Framebuffer,
-                       resolve: moderngl.Framebuffer) -> None:
-        """The lit pass with the light shaded once per pixel (``shading="pixel"``)."""
+                       view: np.ndarray, proj: np.ndarray):
+        """The lit pass with the light shaded once per pixel (``shading="pixel"``); returns the
+        multisampled targets drawn (:meth:`_multisampled`), to resolve."""
         gl, ctx = self.gl, self.gl.ctx
         # the light, shaded once per pixel at its centre (1x): the objects over their planes
         # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
@@ -493,6 +505,8 @@ class Renderer:
             fbo.use()
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             self._draw_lit(objects, lighting, objects_too=with_objects)
+        for obj in (objects_fbo, planes_fbo, centre_depth, *centre):  # only their textures are read on
+            gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
         other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
         others_fbo = gl.own(ctx.framebuffer([other_col, other_key]))
@@ -507,6 +521,9 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST)
         self._frame_vao.render(moderngl.TRIANGLES, vertices=3)
         ctx.enable(moderngl.DEPTH_TEST)
+        gl.free(others_fbo)
+        gl.wait()  # the freed targets are released once drawn: before the multisampled ones exist
+        ms, ms_depth, ms_fbo = self._multisampled(size)
         fill, fill_plane = self.programs["fill"], self._fill_plane
         for prog in (fill, fill_plane):
             prog["u_view"].write(_gl(view))
@@ -524,11 +541,10 @@ class Renderer:
         for obj in objects:
             fill["u_model"].write(_gl(obj.vehicle_from_object))
             self._gpu_model(obj.model).draw("fill")
-        gl.wait()
-        ctx.copy_framebuffer(resolve, ms_fbo)
-        for obj in (objects_fbo, planes_fbo, others_fbo, centre_depth, *centre, object_col, object_key, plane_col,
-                    other_col, other_key):
+        for obj in textures.values():
             gl.free(obj)
+        gl.wait()
+        return ms, ms_depth, ms_fbo
 
     def _draw_lit(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
                   shadows: bool = True) -> None:
