@@ -401,9 +401,6 @@ class Renderer:
         half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
         self._draw_shadow_maps(objects, (sun_mat, sky_mat))
 
-        # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
-        # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
-        # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
         uniforms: dict[str, object] = {
             "u_view": _gl(view), "u_proj": _gl(proj), "u_camera_pos": tuple(camera.position),
             "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
@@ -433,6 +430,9 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
+        # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
+        # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
+        # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
         if self.shading == "pixel":
             ms, ms_depth, ms_fbo = self._lit_per_pixel(objects, lighting, size, view, proj)
         else:
