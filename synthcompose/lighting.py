@@ -560,11 +560,19 @@ class _Occluders:
             self.top)
 
 
-def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 2000) -> _ShadowCue | None:
-    ground = g.pure & np.isin(g.label, GROUND_IDS) & np.isfinite(g.points[..., 0]) & (g.lum > 1e-4)
-    ground &= g.normals[..., 2] > 0.9  # facing up (not kerb faces; nan normals fail too)
+def _ground_cells(g: _Grid, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """Cells of pure ground (:data:`GROUND_IDS`) with a point and some light, facing up (not kerb
+    faces; nan normals fail too), within 45 m of the camera on the ground plan; and every
+    cell's distance from the camera on the ground plan."""
     dist = np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y)
-    ground &= (dist < 45.0) & (np.abs(g.points[..., 1] - camera.y) < 48.0)
+    ground = g.pure & np.isin(g.label, GROUND_IDS) & np.isfinite(g.points[..., 0]) & (g.lum > 1e-4)
+    ground &= (g.normals[..., 2] > 0.9) & (dist < 45.0)
+    return ground, dist
+
+
+def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 2000) -> _ShadowCue | None:
+    ground, _ = _ground_cells(g, camera)
+    ground &= np.abs(g.points[..., 1] - camera.y) < 48.0
     rr, cc = np.nonzero(ground)
     if len(rr) < 200:
         return None
@@ -775,6 +783,13 @@ def _pair_none(cue: _PairCue) -> tuple[np.ndarray, float]:
     return best
 
 
+def _pair_sun(t: dict, az_deg: float, el_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sun's light on each end of the pairs (float32 terms ``t`` of :func:`_pair_fit`),
+    relative to an up-facing surface's."""
+    d = _direction(az_deg, el_deg).astype(np.float32)
+    return np.maximum(t["n1"] @ d, 0) / d[2], np.maximum(t["n2"] @ d, 0) / d[2]
+
+
 def _pair_fit(cue: _PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> tuple[float, float, float]:
     """(gain in nats per pair over the ambient-only model, sky share, ground ratio) of the best
     sunny model for that sun direction. A pair may instead lie in a cast shadow (ambient only,
@@ -786,9 +801,7 @@ def _pair_fit(cue: _PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> 
             t[name] = (k * (gm + (1 - gm) * (0.5 + 0.5 * n[:, 2])[None, None, :])).astype(np.float32)
         t["sun_share"] = (1 - _KS[:, None, None]).astype(np.float32)
         t["n1"], t["n2"], t["y"] = cue.n1.astype(np.float32), cue.n2.astype(np.float32), cue.y.astype(np.float32)
-    d = _direction(az_deg, el_deg).astype(np.float32)
-    s1 = np.maximum(t["n1"] @ d, 0) / d[2]
-    s2 = np.maximum(t["n2"] @ d, 0) / d[2]
+    s1, s2 = _pair_sun(t, az_deg, el_deg)
     e1 = np.maximum(t["kh1"] + t["sun_share"] * s1, np.float32(1e-4))
     e2 = np.maximum(t["kh2"] + t["sun_share"] * s2, np.float32(1e-4))
     loss = _rho(t["y"] - np.log(e1 / e2))
@@ -851,11 +864,8 @@ class _CasterCue:
 
 
 def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
-    d_here = np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y)  # on the ground plan
+    ground, d_here = _ground_cells(g, camera)
     standing = np.isin(g.label, OCCLUDER_IDS)
-    ground = g.pure & np.isin(g.label, GROUND_IDS) & np.isfinite(g.points[..., 0]) & (g.lum > 1e-4)
-    ground &= g.normals[..., 2] > 0.9
-    ground &= d_here < 45.0
     # ground seen below something standing that is not clearly nearer than it (under a car's
     # body, at its foot) is dark from contact shadow alone
     caster = standing & np.isfinite(d_here)
@@ -1141,9 +1151,7 @@ def _lit_pairs_low(pairs: _PairCue, none: np.ndarray, az: float, el: float) -> f
     _, k, gm = _pair_fit(pairs, none, az, el)
     t = pairs.terms
     i, j = int(np.argmin(np.abs(_KS - k))), int(np.argmin(np.abs(_GAMMAS - gm)))
-    d = _direction(az, el).astype(np.float32)
-    s1 = np.maximum(t["n1"] @ d, 0) / d[2]
-    s2 = np.maximum(t["n2"] @ d, 0) / d[2]
+    s1, s2 = _pair_sun(t, az, el)
     ambient = np.log(t["kh1"][i, j] / t["kh2"][i, j])
     sun = np.log((t["kh1"][i, j] + (1 - k) * s1) / (t["kh2"][i, j] + (1 - k) * s2))
     lit = (np.abs(sun - ambient) > 0.4) & (_rho(t["y"] - sun) + 0.5 < none)
