@@ -135,7 +135,8 @@ class LightEstimate:
     """The light of one photo, in the vehicle frame (ISO 8855), linear RGB.
 
     sunny              : a sun was found (cast shadows on the ground, or a clear shading sun
-                         that leaves all the ground in view lit), else ambient light only
+                         that leaves all the ground in view lit, or all in shadow), else ambient
+                         light only
     sun_azimuth_deg    : towards the sun, from x (forward) to y (left); best fit even when not sunny
     sun_elevation_deg  : above the horizon
     sun_fraction       : share of an up-facing unshadowed surface's irradiance from the sun
@@ -149,6 +150,8 @@ class LightEstimate:
     ground_levels      : ((label id, lit linear luminance), ...) of the ground classes, and
     shadow_log_ratio   : log(shadow / lit) on them: where an inserted object's ground is in a
                          real shadow (:meth:`sun_visibility`)
+    ground_shadowed    : the sun does not reach the ground in view (it lights the walls above):
+                         all of it is in shadow, whatever its brightness
     cues               : diagnostics of each cue (recorded)
     """
 
@@ -164,6 +167,7 @@ class LightEstimate:
     confidence: float
     ground_levels: tuple[tuple[int, float], ...] = ()
     shadow_log_ratio: float = 0.0
+    ground_shadowed: bool = False
     cues: dict = field(default_factory=dict, compare=False, hash=False)
 
     @property
@@ -190,9 +194,12 @@ class LightEstimate:
     def sun_visibility(self, label: int, linear_rgb) -> float:
         """How much sun reaches ground of class ``label`` whose photo colour (linear RGB) is
         ``linear_rgb``: 1 lit, 0 in a real cast shadow (from its brightness between the lit and
-        the shadow level), 1 when not sunny or the class was not measured."""
+        the shadow level), 1 when not sunny or the class was not measured; 0 on any ground
+        under a sun that does not reach it (``ground_shadowed``)."""
         if not self.sunny or self.shadow_log_ratio >= 0:
             return 1.0
+        if self.ground_shadowed and int(label) in GROUND_IDS:
+            return 0.0
         levels = dict(self.ground_levels)
         if int(label) not in levels:
             return 1.0
@@ -210,8 +217,11 @@ class LightEstimate:
         luminance smoothed over 5x5 pixels), 1 elsewhere; None when not sunny."""
         if not self.sunny or self.shadow_log_ratio >= 0 or not self.ground_levels:
             return None
-        lum = cv2.blur(_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
         mask = np.ones(label_ids.shape, np.float32)
+        if self.ground_shadowed:
+            mask[np.isin(label_ids, GROUND_IDS)] = 0.0
+            return mask
+        lum = cv2.blur(_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
         for label, level in self.ground_levels:
             sel = label_ids == label
             mask[sel] = self._ramp(np.log(np.maximum(lum[sel], 1e-6)), level)
@@ -228,7 +238,7 @@ class LightEstimate:
             "ground_ratio": _r(self.ground_ratio, 3), "exposure": _r(self.exposure, 3),
             "confidence": _r(self.confidence, 3),
             "ground_levels": {str(k): _r(v, 5) for k, v in self.ground_levels},
-            "shadow_log_ratio": _r(self.shadow_log_ratio, 3),
+            "shadow_log_ratio": _r(self.shadow_log_ratio, 3), "ground_shadowed": self.ground_shadowed,
             "cues": _r(self.cues),
         }
 
@@ -1051,10 +1061,21 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cues["caster_agreement"] = agreement
         strength = float(np.clip(agreement / (2 * CASTER_MIN_AGREEMENT), 0, 1))
     cues["caster_sun"] = cast is not None
+    shaded = None
+    if not two_levels and lit_ground is None and cast is None and shadow is not None and pairs is not None:
+        shaded = _shaded_ground_sun(shadow, pairs, none, coarse)
+    if shaded is not None:
+        # the shading shows a sun that does not reach the ground in view: it is all in shadow
+        sunny = True
+        gain, az, el, k, gm = shaded
+        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
+        cues.update(info)
+        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
+    cues["shaded_ground_sun"] = shaded is not None
     if not sunny:
         delta = 0.0
-    elif lit_ground is not None:  # what a shadow would be: the sky's share of the light
-        delta = math.log(lit_ground[3])
+    elif lit_ground is not None or shaded is not None:  # a shadow's step: the sky's share of the light
+        delta = math.log((lit_ground or shaded)[3])
     elif cast is not None:  # the casters' shadows against the lit ground around them
         delta = cast[3]
     else:
@@ -1068,10 +1089,14 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     sky_rgb = sun_rgb = ground_rgb = np.ones(3)
     exposure, levels = 1.0, ()
     if shadow is not None:
-        in_shadow = mix.posterior > 0.5 if sunny and lit_ground is None and cast is None else np.zeros(len(shadow.rel), bool)
+        in_shadow = mix.posterior > 0.5 if sunny and lit_ground is None and cast is None and shaded is None \
+            else np.zeros(len(shadow.rel), bool)
         lo, hi = np.quantile(shadow.rel, [0.03, 0.9])
         typical = (shadow.rel >= lo) & (shadow.rel <= hi)  # not markings, not deep holes
         lit = ~in_shadow & typical
+        # under a shaded-ground sun all the ground is in shadow: its lit levels are the shadow's
+        # over the sky's share
+        lit_scale = 1.0 if shaded is None else 1.0 / shaded[3]
         lit_col = _class_mean(shadow, lit)
         ground_rgb = _unit(lit_col)
         if in_shadow.sum() >= 10:
@@ -1082,9 +1107,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
             sun_rgb = _unit(np.maximum(sky_rgb * (ratio - 1.0), 1e-3))
         else:
             sky_rgb = sun_rgb = ground_rgb
-        levels = tuple((int(k), float(np.median(shadow.lin[lit & (shadow.cls == k)] @ LUM)))
+        levels = tuple((int(k), lit_scale * float(np.median(shadow.lin[lit & (shadow.cls == k)] @ LUM)))
                        for k in np.unique(shadow.cls) if (lit & (shadow.cls == k)).sum() >= 20)
-        exposure, reference = _exposure(shadow, lit)
+        exposure, reference = _exposure(shadow, lit, lit_scale)
         cues["exposure_reference"] = reference
     sky = g.pure & (g.label == SKY_ID)
     if sky.sum() >= 50:
@@ -1096,7 +1121,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         sky_rgb=tuple(float(v) for v in sky_rgb), sun_rgb=tuple(float(v) for v in sun_rgb),
         ground_rgb=tuple(float(v) for v in ground_rgb), ground_ratio=float(info["shading_ground_ratio"]),
         exposure=float(exposure), confidence=float(confidence), ground_levels=levels,
-        shadow_log_ratio=float(delta) if sunny else 0.0, cues=cues)
+        shadow_log_ratio=float(delta) if sunny else 0.0, ground_shadowed=shaded is not None, cues=cues)
 
 
 def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
@@ -1109,10 +1134,6 @@ def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coars
     shadow, whose sunlit shading pairs reach down to the ground (:func:`_lit_pairs_low`): the
     sun reaches the feet of what stands in view. A best direction that puts the ground in view
     in shadow means ambient light only (module docstring)."""
-    top = coarse[0][0]
-    if top < LIT_GROUND_MIN_GAIN:
-        return None
-    margin = [c for c in coarse if c[0] >= max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN)]
 
     def lit(az: float, el: float) -> bool:  # the geometry tells, and sees no shadow
         shadowed, known = shadow.shadowed(az, el)
@@ -1126,7 +1147,37 @@ def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coars
             return False
         return _lit_pairs_low(pairs, none, az, el) <= LIT_PAIRS_LOW
 
-    for test in (lit, lit_unseen):
+    return _shading_sun(pairs, none, coarse, (lit, lit_unseen))
+
+
+def _shaded_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
+    """A sun whose light does not reach the ground in view (low beyond the buildings on its
+    side): (shading gain, azimuth, elevation, sky share, ground ratio), or None. Only for ground
+    of one level that the other rules left: the shading shows a clear sun (gain >=
+    :data:`LIT_GROUND_MIN_GAIN`) whose best direction, within :data:`LIT_GROUND_MARGIN`, lights
+    no pair near the ground (:func:`_lit_pairs_low` above :data:`LIT_PAIRS_LOW`) and no ground
+    sample the geometry can tell about."""
+
+    def shaded(az: float, el: float) -> bool:
+        shadowed, known = shadow.shadowed(az, el)
+        if (known & ~shadowed).mean() > 0.05:  # the geometry sees ground it lights
+            return False
+        return _lit_pairs_low(pairs, none, az, el) > LIT_PAIRS_LOW
+
+    return _shading_sun(pairs, none, coarse, (shaded,))
+
+
+def _shading_sun(pairs: _PairCue, none: np.ndarray, coarse: list, tests):
+    """A clear shading sun that passes a test: the best coarse direction (gain, azimuth,
+    elevation; best first) within :data:`LIT_GROUND_MARGIN` of the best and at least
+    :data:`LIT_GROUND_MIN_GAIN` that passes the first test any passes, refined on a 5 degree grid
+    among the directions passing that test: (gain, azimuth, elevation, sky share, ground ratio),
+    or None."""
+    top = coarse[0][0]
+    if top < LIT_GROUND_MIN_GAIN:
+        return None
+    margin = [c for c in coarse if c[0] >= max(LIT_GROUND_MIN_GAIN, top - LIT_GROUND_MARGIN)]
+    for test in tests:
         found = next(((gain, az0, el0) for gain, az0, el0 in margin if test(az0, el0)), None)
         if found is not None:
             break
@@ -1198,11 +1249,13 @@ def _class_ratio(cue: _ShadowCue, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.exp(np.average(logs, axis=0, weights=weights)) if logs else np.ones(3)
 
 
-def _exposure(cue: _ShadowCue, mask: np.ndarray) -> tuple[float, str]:
+def _exposure(cue: _ShadowCue, mask: np.ndarray, scale: float = 1.0) -> tuple[float, str]:
+    """Irradiance of lit ground from the samples in ``mask`` (their luminance times ``scale``)
+    against the typical albedo of road, else sidewalk; and which of them."""
     for cls, albedo, name in ((ROAD_ID, ROAD_ALBEDO, "road"), (SIDEWALK_ID, SIDEWALK_ALBEDO, "sidewalk")):
         sel = mask & (cue.cls == cls)
         if sel.sum() >= 100:
-            y = float(np.median(cue.lin[sel] @ LUM))
+            y = scale * float(np.median(cue.lin[sel] @ LUM))
             return float(np.clip(y / albedo, *EXPOSURE_RANGE)), name
     return 1.0, "none"
 

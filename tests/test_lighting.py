@@ -13,6 +13,7 @@ import pytest
 
 from synthcompose.camera import Camera
 from synthcompose.cli import main
+from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import (RENDER_BLUR_SIGMA, CameraMatch, Composer, SceneLayers, estimate_blur,
                                   estimate_noise)
 from synthcompose.errors import ManifestError
@@ -124,12 +125,34 @@ def test_tinted_ambient_colour(tint):
     assert chroma_error(est.to_lighting().sky_rgb, tint) <= 0.10
 
 
-def test_directional_shading_without_cast_shadows_is_not_a_sun():
+def test_directional_shading_without_cast_shadows_gives_the_ground_no_sun():
     """The default generator shades with a sun but draws no cast shadows: nothing the inserted
     objects stand on shows a shadow, so they get ambient light only (and no shadow of their own
-    that the real objects lack)."""
-    est, _ = estimate(0, None)
-    assert not est.sunny
+    that the real objects lack): either no sun, or one that does not reach the ground in view."""
+    est, arrays = estimate(0, None)
+    ground = np.isin(arrays["label_ids"], GROUND_IDS)
+    mask = est.sun_mask(arrays["rgb"], arrays["label_ids"])
+    assert not est.sunny or mask[ground].mean() <= 0.2
+
+
+def test_sun_that_leaves_the_ground_in_shadow():
+    """A low sun from the side, behind the buildings: the ground in view is all in their shadow,
+    the walls facing the sun are lit. The sun is found from the walls' shading; the ground is
+    marked in shadow, so an object standing on it gets no sun and casts no sun shadow."""
+    light = SceneLight(sun_azimuth_deg=120.0, sun_elevation_deg=30.0, sun_fraction=0.65)
+    scene = random_scene(np.random.default_rng(1), W, H, light=light)
+    arrays, sunlit = render_scene_sunlit(scene)
+    ground = np.isin(arrays["label_ids"], GROUND_IDS)
+    assert sunlit[ground].mean() < 0.02  # the scene is what the test is about
+    depth = disparity_to_depth(arrays["disparity"], scene.camera)
+    est = estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera)
+    assert est.sunny and est.cues["shaded_ground_sun"]
+    assert abs((est.sun_azimuth_deg - 120.0 + 180.0) % 360.0 - 180.0) <= 20.0
+    mask = est.sun_mask(arrays["rgb"], arrays["label_ids"])
+    assert mask[ground].mean() <= 0.2
+    road = srgb_to_linear(np.median(arrays["rgb"][arrays["label_ids"] == 7], axis=0) / 255.0)
+    assert est.sun_visibility(7, road) == 0.0
+    assert 0.0 < est.sun_fraction < 1.0
 
 
 def test_objects_in_a_real_shadow_get_no_sun():
