@@ -27,6 +27,7 @@ from .models import Model
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 SAMPLES = 4
+_PLANE_COL_UNIT = 12  # texture unit of the per-pixel plane colour that fill.glsl (PLANE) reads
 SHADING = ("auto", "pixel", "sample")
 
 
@@ -433,8 +434,9 @@ class Renderer:
         # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
         # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
         # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
+        plane_ir = None
         if self.shading == "pixel":
-            ms, ms_depth, ms_fbo = self._lit_per_pixel(objects, lighting, size, view, proj)
+            ms, ms_depth, ms_fbo, plane_ir = self._lit_per_pixel(objects, lighting, size, view, proj)
         else:
             ms, ms_depth, ms_fbo = self._multisampled(size)
             ms_fbo.use()
@@ -447,11 +449,16 @@ class Renderer:
         ctx.copy_framebuffer(resolve, ms_fbo)
         for obj in (resolve, ms_fbo, *ms[1:]):  # the colour target and the depth serve Ir
             gl.free(obj)
-        # Ir: the planes alone, unshadowed (cheap: shaded per sample as it is)
+        # Ir: the planes alone, unshadowed, made as Irpv's planes were (shaded per sample, or
+        # once per pixel and filled), so that the two agree where a plane covers part of a pixel
         ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        self._draw_lit(objects, lighting, objects_too=False, shadows=False)
+        if plane_ir is None:
+            self._draw_lit(objects, lighting, objects_too=False, shadows=False)
+        else:
+            self._fill_planes(objects, lighting, plane_ir)
+            gl.free(plane_ir)
         tex["ir"] = gl.texture(size, 4, dtype="f4")
         resolve_ir = gl.own(ctx.framebuffer([tex["ir"]]))
         gl.wait()
@@ -489,7 +496,8 @@ class Renderer:
     def _lit_per_pixel(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                        view: np.ndarray, proj: np.ndarray):
         """The lit pass with the light shaded once per pixel (``shading="pixel"``); returns the
-        multisampled targets drawn (:meth:`_multisampled`), to resolve."""
+        multisampled targets drawn (:meth:`_multisampled`), to resolve, and the planes alone,
+        unshadowed, once per pixel (a texture, for Ir: :meth:`_fill_planes`)."""
         gl, ctx = self.gl, self.gl.ctx
         # the light, shaded once per pixel at its centre (1x): the objects over their planes
         # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
@@ -498,14 +506,16 @@ class Renderer:
         # llvmpipe shading every sample: a third of the time)
         centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
         centre_depth = gl.own(ctx.depth_renderbuffer(size))
-        object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
+        object_col, object_key, plane_col, plane_ir = (gl.texture(size, 4, dtype="f4") for _ in range(4))
         objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
         planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
-        for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
+        planes_ir_fbo = gl.own(ctx.framebuffer([plane_ir], centre_depth))
+        for fbo, with_objects, shadows in ((objects_fbo, True, True), (planes_fbo, False, True),
+                                           (planes_ir_fbo, False, False)):
             fbo.use()
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            self._draw_lit(objects, lighting, objects_too=with_objects)
-        for obj in (objects_fbo, planes_fbo, centre_depth, *centre):  # only their textures are read on
+            self._draw_lit(objects, lighting, objects_too=with_objects, shadows=shadows)
+        for obj in (objects_fbo, planes_fbo, planes_ir_fbo, centre_depth, *centre):  # only their textures are read on
             gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
         other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
@@ -535,16 +545,26 @@ class Renderer:
             texture.use(units[name])
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        for obj in objects:
-            fill_plane["u_model"].write(_gl(obj.plane_matrix(lighting)))
-            self._plane_vao(fill_plane).render(moderngl.TRIANGLES)
+        self._fill_planes(objects, lighting, plane_col)
         for obj in objects:
             fill["u_model"].write(_gl(obj.vehicle_from_object))
             self._gpu_model(obj.model).draw("fill")
         for obj in textures.values():
             gl.free(obj)
         gl.wait()
-        return ms, ms_depth, ms_fbo
+        return ms, ms_depth, ms_fbo, plane_ir
+
+    def _fill_planes(self, objects: Sequence[RenderObject], lighting: Lighting, plane_col: moderngl.Texture) -> None:
+        """Rasterise the objects' ground planes into the bound multisampled framebuffer, every
+        sample its pixel's colour from ``plane_col`` (the planes shaded once per pixel:
+        fill.glsl, PLANE); view and projection as set by :meth:`_lit_per_pixel`."""
+        prog = self._fill_plane
+        plane_col.use(_PLANE_COL_UNIT)
+        prog["u_plane_col"].value = _PLANE_COL_UNIT
+        vao = self._plane_vao(prog)
+        for obj in objects:
+            prog["u_model"].write(_gl(obj.plane_matrix(lighting)))
+            vao.render(moderngl.TRIANGLES)
 
     def _draw_lit(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
                   shadows: bool = True) -> None:

@@ -95,3 +95,24 @@ def test_per_pixel_and_per_sample_shading_agree(gl_clean):
     assert np.quantile(diff, 0.99) < 0.02  # at the edges, close
     with pytest.raises(ValueError, match="shading"):
         Renderer(gl_clean, shading="fast")
+
+
+@pytest.mark.parametrize("shading", ["pixel", "sample"])
+def test_the_ground_planes_border_leaves_no_seam(gl_clean, shading):
+    """Irpv - Ir carries the object's shadows into the photo: at the border of its ground plane,
+    where the plane covers part of a pixel, the two must agree (no line drawn round the plane),
+    in either way of shading."""
+    renderer = Renderer(gl_clean, shading=shading)
+    pose = np.eye(4)
+    pose[:3, 3] = (9.0, 0.0, 0.0)
+    ambient = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.0)
+    passes = renderer.render(make_camera(), [RenderObject(_panel(), pose, (0.2, 0.2, 0.2))], ambient)
+    p = {name: passes.read(name) for name in ("irpv", "ir", "alpha", "plane")}
+    renderer.release(passes)
+    cover = p["plane"][..., 1]
+    far = ~ndimage.binary_dilation(p["alpha"] > 0.0, iterations=40)  # away from the contact shadow
+    border = far & (cover > 0.01) & (cover < 0.99)
+    assert border.sum() > 100
+    diff = np.abs(p["irpv"][..., :3] - p["ir"][..., :3]).max(axis=-1)
+    assert diff[border].max() <= 1e-3, (diff[border].max(), np.median(p["ir"][..., 0][far & (cover > 0.99)]))
+    assert diff[far & (cover > 0.99)].max() <= 1e-3
