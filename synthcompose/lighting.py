@@ -45,6 +45,16 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   cast shadow instead (ambient only, at a small cost). Pairs are weighed so that no image region
   (one near car) outweighs the rest, and by class (:data:`PAIR_CLASS_WEIGHT`: building corners
   count most, cars, with lamps and trims, less, kerbs, too small for good normals, least).
+* **straight shadow edges on the ground** (the sun's azimuth, where the ground has two levels):
+  the shading of walls facing across the street tells little more than how far the sun stands
+  to one side for its height, so a range of directions fits it about as well. The shadow of
+  something vertical (a building's corner, a pole, a car's corner) has a straight edge along
+  the sun's azimuth, whether or not the caster is in view. The edges between lit and shadowed
+  ground are put on the ground plan (within 30 m), and the longest straight one that is at
+  least :data:`LINE_MIN_LENGTH` long and off the street's axis and its normal (kerbs, roof
+  lines and building ends throw edges along those) gives the azimuth, up to its half turn:
+  the direction is then the best along it whose shading is within :data:`LINE_MARGIN` of the
+  best.
 * **shadows predicted from the geometry** (a weak tie-breaker): a height map of everything
   standing on the ground gives each ground sample's horizon towards each azimuth; a sun
   direction predicts which samples lie in shadow, where the visible scene can tell (paths that
@@ -421,6 +431,7 @@ class _ShadowCue:
     cells: tuple[np.ndarray, np.ndarray]  # (N, 1) float32 map coordinates of the samples
     view: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # distances to / unit vectors of the borders
     top: float  # height (m) above which nothing is assumed to stand
+    ground: np.ndarray | None = None  # (h, w) bool grid: the ground cells sampled from (no markings)
     cache: dict = field(default_factory=dict)
 
     def horizons(self, az_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -590,6 +601,8 @@ def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 20
     rr, cc = rr[keep], cc[keep]
     if len(rr) < 200:
         return None
+    unmarked = np.zeros(ground.shape, bool)
+    unmarked[rr, cc] = True
     if len(rr) > max_samples:  # even spread, deterministic
         pick = np.linspace(0, len(rr) - 1, max_samples).astype(np.int64)
         rr, cc = rr[pick], cc[pick]
@@ -611,6 +624,7 @@ def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 20
         sel = cls == k
         rel[sel] = loglum[sel] - np.median(loglum[sel])
     cue.rel = np.clip(rel, -2.5, 1.5)  # (markings are gone; an outlier component takes the rest)
+    cue.ground = unmarked
     return cue
 
 
@@ -964,6 +978,141 @@ def _caster_sun(cue: _CasterCue, coarse: list):
     return best[:4]
 
 
+# ============================================================== cue: straight shadow edges on the ground
+#: a straight edge between lit and shadowed ground at least this long (metres, on the ground
+#: plan) and off the street's axis and its normal by more than LINE_AXIS_BAND degrees is the
+#: shadow of something vertical: it runs along the sun's azimuth
+LINE_MIN_LENGTH, LINE_AXIS_BAND = 3.0, 10.0
+#: the shading gain a direction along such an edge may lose against the best direction
+LINE_MARGIN = 0.3
+_LINE_BIN = 0.25  # metres: offset and length bins of the edge search
+_LINE_MAX_DIST = 30.0  # metres: edges farther from the camera are too coarse on the plan
+_LINE_GAP = 3  # empty bins bridged along an edge
+
+
+def _street_axis(g: _Grid) -> float:
+    """Direction (degrees, mod 180) of the street: normal to the walls' most common facing (the
+    vehicle's heading when no wall is in view)."""
+    sel = g.pure & np.isin(g.label, (11, 12)) & (np.abs(g.normals[..., 2]) < 0.3)  # building, wall
+    if sel.sum() < 200:
+        return 0.0
+    n = g.normals[sel]
+    h = np.bincount(np.round(np.degrees(np.arctan2(n[:, 1], n[:, 0]))).astype(np.int64) % 180,
+                    minlength=180).astype(np.float64)
+    h = np.convolve(np.concatenate([h[-2:], h, h[:2]]), np.ones(5), "valid")
+    return float((np.argmax(h) + 90) % 180)
+
+
+def _shadow_line(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixture) -> tuple[float, float]:
+    """The longest straight edge between lit and shadowed ground on the ground plan, off the
+    street's axis and its normal by more than :data:`LINE_AXIS_BAND` (kerbs, roof lines,
+    building ends): (direction in degrees mod 180, length in metres); length 0 without one."""
+    lengths = _shadow_line_lengths(g, camera, cue, mix)
+    i = int(np.argmax(lengths))
+    if lengths[i] <= 0:
+        return 0.0, 0.0
+    # a straight edge keeps much of its length a few degrees either side: the centre of the
+    # directions that keep most of it
+    off = np.arange(-10, 11)
+    near = lengths[(i + off) % 180]
+    w = np.where(near >= 0.85 * lengths[i], near, 0.0)
+    return float((i + off @ w / w.sum()) % 180.0), float(lengths[i])
+
+
+def _shadow_line_lengths(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixture) -> np.ndarray:
+    """(180,) per ground-plan direction (degrees, mod 180): the length (metres) of the longest
+    straight edge between lit and shadowed ground along it, 0 within :data:`LINE_AXIS_BAND` of
+    the street's axis or its normal; measured every other degree, and every degree within 11 of
+    the longest (0 where not measured)."""
+    _, dist = _ground_cells(g, camera)
+    rr, cc = np.nonzero(cue.ground & (dist < _LINE_MAX_DIST))
+    if len(rr) < 200:
+        return np.zeros(180)
+    # each class's threshold half a shadow step below its lit level (from the mixture's samples)
+    loglum = np.log(np.maximum(g.lum[rr, cc], 1e-6))
+    sample_log = np.log(np.maximum(cue.lin @ LUM, 1e-6))
+    cls = g.label[rr, cc]
+    shade = np.full(g.lum.shape, np.nan, np.float32)
+    for k in np.unique(cls):
+        lit = (cue.cls == k) & (mix.posterior < 0.5)
+        if lit.sum() < 20:
+            continue
+        sel = cls == k
+        shade[rr[sel], cc[sel]] = loglum[sel] < float(np.median(sample_log[lit])) + mix.delta / 2
+    valid = np.isfinite(shade)
+    weight = cv2.GaussianBlur(valid.astype(np.float32), (0, 0), 1.0)
+    smooth = cv2.GaussianBlur(np.where(valid, shade, 0.0).astype(np.float32), (0, 0), 1.0) / np.maximum(weight, 1e-6)
+    # the shadowed side's cells next to lit ones: an edge one cell thick
+    lit_cells = ((smooth < 0.5) & valid).astype(np.uint8)
+    edge = valid & (smooth >= 0.5) & (weight > 0.6) & \
+        (cv2.dilate(lit_cells, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))) > 0)
+    xy = g.points[edge][:, :2]
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    out = np.zeros(180)
+    if len(xy) < 20:
+        return out
+    xy = xy - xy.mean(axis=0)
+    street = _street_axis(g)
+
+    def measure(phi: int) -> None:
+        off = min(abs(phi - street) % 180, 180 - abs(phi - street) % 180)
+        if off <= LINE_AXIS_BAND or abs(off - 90) <= LINE_AXIS_BAND:
+            return
+        a = math.radians(phi)
+        along = xy[:, 0] * math.cos(a) + xy[:, 1] * math.sin(a)
+        across = -xy[:, 0] * math.sin(a) + xy[:, 1] * math.cos(a)
+        r = np.floor(across / _LINE_BIN).astype(np.int64)
+        t = np.floor(along / _LINE_BIN).astype(np.int64)
+        r -= r.min()
+        t -= t.min()
+        span = int(t.max()) + 1
+        cells = np.unique(r * span + t)  # occupied (offset, along) bins, sorted
+        cr, ct = cells // span, cells % span
+        # runs of occupied bins along one offset, gaps of up to _LINE_GAP bins bridged (a far edge
+        # crosses the rows of cells sparsely)
+        start = np.ones(len(cells), bool)
+        start[1:] = (cr[1:] != cr[:-1]) | (ct[1:] - ct[:-1] > _LINE_GAP + 1)
+        run = np.cumsum(start) - 1
+        first = ct[start]
+        last = np.zeros(int(run[-1]) + 1, np.int64)
+        last[run] = ct  # the last write of each run is its largest bin
+        out[phi] = float((last - first + 1).max()) * _LINE_BIN
+
+    for phi in range(0, 180, 2):  # every other degree, then every degree round the longest
+        measure(phi)
+    best = int(np.argmax(out))
+    for phi in range(best - 11, best + 12):
+        if phi % 2:
+            measure(phi % 180)
+    return out
+
+
+def _along_line(phi: float, top: float, pairs: _PairCue, none: np.ndarray, evidence):
+    """The direction of best ``evidence`` (its score, azimuth, elevation, info) whose azimuth lies
+    along a straight shadow edge (``phi`` or ``phi + 180``, within 4 degrees) and whose shading
+    gain is within :data:`LINE_MARGIN` of the best (``top``) and whose evidence is positive; None
+    if there is none. Elevations every 10 degrees, then 2.5 and 5 degrees either side of the best."""
+    best = None
+
+    def consider(a: float, e: float) -> None:
+        nonlocal best
+        if _pair_fit(pairs, none, a, e)[0] < top - LINE_MARGIN:
+            return
+        score, info = evidence(a, e)
+        if score > (0.0 if best is None else best[0]):
+            best = (score, a, e, info)
+
+    for a0 in (phi, phi + 180.0):
+        for a in a0 + np.arange(-4.0, 4.1, 2.0):
+            for e in np.arange(10.0, 80.1, 10.0):
+                consider(float(a % 360.0), float(e))
+    if best is not None:
+        a, e = best[1], best[2]
+        for de in (-5.0, -2.5, 2.5, 5.0):
+            consider(a, float(np.clip(e + de, 8.0, 85.0)))
+    return best
+
+
 # ============================================================== the estimate
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
                       work_width: int = 700) -> LightEstimate:
@@ -1033,6 +1182,19 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         strength = float(np.clip(mix.gain / 0.25, 0, 1) * np.clip((-mix.delta - 0.2) / 0.5, 0, 1))
         if not 0.01 <= mix.share <= 0.95:
             strength = 0.0
+    line_sun = None
+    if two_levels and pairs is not None:
+        # a straight shadow edge off the street's axes runs along the sun's azimuth: it decides
+        # between directions the shading barely tells apart
+        phi, length = _shadow_line(g, camera, shadow, mix)
+        cues["shadow_line"] = [phi, length]
+        if length >= LINE_MIN_LENGTH:
+            line_sun = _along_line(phi, coarse[0][0], pairs, none, evidence)
+    if line_sun is not None:
+        score, az, el, info = line_sun
+        cues.update(info)
+        cues["direction_score"] = score
+    cues["shadow_line_sun"] = line_sun is not None
     sunny = bool(two_levels and score > 0.0)
     lit_ground = None
     if not two_levels and shadow is not None and pairs is not None:
@@ -1276,7 +1438,8 @@ def _describe(record: dict) -> str:
     if lt.get("mode") == "estimate":
         if lt.get("sunny"):
             return (f"estimated: sun az {lt['sun_azimuth_deg']:.0f} el {lt['sun_elevation_deg']:.0f} deg, "
-                    f"{100 * lt['sun_fraction']:.0f}% sun, confidence {lt['confidence']:.2f}")
+                    f"{100 * lt['sun_fraction']:.0f}% sun{', the ground in shadow' if lt.get('ground_shadowed') else ''}, "
+                    f"confidence {lt['confidence']:.2f}")
         return f"estimated: no sun (ambient only), confidence {lt['confidence']:.2f}"
     d = lt.get("sun_direction", [0, 0, 1])
     el = math.degrees(math.asin(max(-1.0, min(1.0, d[2]))))
