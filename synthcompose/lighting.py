@@ -993,10 +993,12 @@ _LINE_GAP = 3  # empty bins bridged along an edge
 def _street_axis(g: _Grid) -> float:
     """Direction (degrees, mod 180) of the street: normal to the walls' most common facing (the
     vehicle's heading when no wall is in view)."""
-    sel = g.pure & np.isin(g.label, (11, 12)) & (np.abs(g.normals[..., 2]) < 0.3)  # building, wall
-    if sel.sum() < 200:
+    sub = (slice(None, None, 2), slice(None, None, 2))  # every other cell is plenty
+    normals = g.normals[sub]
+    sel = g.pure[sub] & np.isin(g.label[sub], (11, 12)) & (np.abs(normals[..., 2]) < 0.3)  # building, wall
+    if sel.sum() < 50:
         return 0.0
-    n = g.normals[sel]
+    n = normals[sel]
     h = np.bincount(np.round(np.degrees(np.arctan2(n[:, 1], n[:, 0]))).astype(np.int64) % 180,
                     minlength=180).astype(np.float64)
     h = np.convolve(np.concatenate([h[-2:], h, h[:2]]), np.ones(5), "valid")
@@ -1024,8 +1026,9 @@ def _shadow_line_lengths(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixtur
     straight edge between lit and shadowed ground along it, 0 within :data:`LINE_AXIS_BAND` of
     the street's axis or its normal; measured every other degree, and every degree within 11 of
     the longest (0 where not measured)."""
-    _, dist = _ground_cells(g, camera)
-    rr, cc = np.nonzero(cue.ground & (dist < _LINE_MAX_DIST))
+    rr, cc = np.nonzero(cue.ground)
+    near = np.hypot(g.points[rr, cc, 0] - camera.x, g.points[rr, cc, 1] - camera.y) < _LINE_MAX_DIST
+    rr, cc = rr[near], cc[near]
     if len(rr) < 200:
         return np.zeros(180)
     # each class's threshold half a shadow step below its lit level (from the mixture's samples)
