@@ -18,8 +18,7 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   shadow (EM, with an outlier component). A clear second level (gain >= 0.05 nats per sample,
   at least 30 % darker) means sunlight; ``exp(delta)`` is the sky's share of the light on
   up-facing ground, ``1 - exp(delta)`` the sun's. Without such shadows the light is ambient
-  only: an overcast sky, or all the ground in view in shadow - either way what the inserted
-  objects, which stand on that ground, receive - unless all the ground in view is lit: the
+  only (an overcast sky) - unless all the ground in view is lit: the
   shading pairs show a clear sun (:data:`LIT_GROUND_MIN_GAIN`) whose best direction (within
   :data:`LIT_GROUND_MARGIN`) the geometry says leaves the ground samples it can tell about lit
   (none predicted in shadow; at least :data:`LIT_GROUND_KNOWN` of them known), or, where the
@@ -27,7 +26,11 @@ photo's pixels 1 and 2 apart, so that a coarser grid does not lose the faces the
   (:data:`LIT_PAIRS_LOW`: the sun reaches the feet of the walls and cars in view). Then the sun
   is that direction and the sky's share the pairs' fit. Failing that, where no ground lies a
   shadow step above its class's median (it is all lit, or all shadow), the casters' shadows
-  may still show the sun (below).
+  may still show the sun (below). Failing that too, a clear shading sun whose sunlit pairs all
+  stand above the ground (:data:`LIT_PAIRS_LOW`), and that the geometry does not see light
+  the ground, lights the walls beyond the street's shadow: the sun is that direction, and all
+  the ground in view is in shadow (``ground_shadowed``: an object standing on it gets the sky
+  alone, as it would under an overcast sky, but a sunny day's sky).
 * **shadows of the casters in view** (the sun ahead of the camera: the ground is nearly all
   lit, the shadows of cars, poles and people, falling towards the camera, too small a share for
   two levels, and no wall faces the sun for the shading): every point of what stands in view
