@@ -1202,23 +1202,25 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cues["direction_score"] = score
     cues["shadow_line_sun"] = line_sun is not None
     sunny = bool(two_levels and score > 0.0)
-    lit_ground = None
+    # without two levels, a sun may still show: tried in turn, a shading sun that leaves all the
+    # ground in view lit, the casters' shadows, a shading sun that leaves it all in shadow
+    lit_ground = cast = shaded = None
     if not two_levels and shadow is not None and pairs is not None:
         lit_ground = _lit_ground_sun(shadow, pairs, none, coarse)
-    if lit_ground is not None:
-        # no shadow in view, yet the shading shows a sun that leaves all the ground in view lit
-        sunny = True
-        gain, az, el, k, gm = lit_ground
-        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
-        cues.update(info)
-        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
-    cues["lit_ground_sun"] = lit_ground is not None
-    cast = None
     if not two_levels and lit_ground is None and shadow is not None \
             and np.mean(shadow.rel > -MAX_SHADOW_LOG_RATIO) <= CASTER_MAX_BRIGHT:
         casters = _caster_cue(g, camera)
         if casters is not None:
             cast = _caster_sun(casters, coarse)
+    if not two_levels and lit_ground is None and cast is None and shadow is not None and pairs is not None:
+        shaded = _shaded_ground_sun(shadow, pairs, none, coarse)
+    if lit_ground is not None or shaded is not None:
+        # the shading shows a sun (and the ground in view all lit, or all in shadow)
+        sunny = True
+        gain, az, el, k, gm = lit_ground or shaded
+        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
+        cues.update(info)
+        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
     if cast is not None:
         # the casters in view throw their shadows where that sun puts them
         sunny = True
@@ -1228,17 +1230,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cues.update(info)
         cues["caster_agreement"] = agreement
         strength = float(np.clip(agreement / (2 * CASTER_MIN_AGREEMENT), 0, 1))
+    cues["lit_ground_sun"] = lit_ground is not None
     cues["caster_sun"] = cast is not None
-    shaded = None
-    if not two_levels and lit_ground is None and cast is None and shadow is not None and pairs is not None:
-        shaded = _shaded_ground_sun(shadow, pairs, none, coarse)
-    if shaded is not None:
-        # the shading shows a sun that does not reach the ground in view: it is all in shadow
-        sunny = True
-        gain, az, el, k, gm = shaded
-        info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
-        cues.update(info)
-        strength = float(np.clip((gain - LIT_GROUND_MIN_GAIN) / LIT_GROUND_MIN_GAIN, 0, 1))
     cues["shaded_ground_sun"] = shaded is not None
     if not sunny:
         delta = 0.0
