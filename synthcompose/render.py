@@ -501,9 +501,9 @@ class Renderer:
         gl, ctx = self.gl, self.gl.ctx
         # the light, shaded once per pixel at its centre (1x): the objects over their planes
         # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
-        # objects' shadows; then fill.glsl rasterises the same geometry at SAMPLES per pixel
-        # with those colours, and the resolve averages the samples (MSAA's colour, without
-        # llvmpipe shading every sample: a third of the time)
+        # objects' shadows (and without, for Ir); then fill.glsl rasterises the same geometry
+        # at SAMPLES per pixel with those colours, and the resolve averages the samples (MSAA's
+        # colour, without llvmpipe shading every sample: a third of the time)
         centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
         centre_depth = gl.own(ctx.depth_renderbuffer(size))
         object_col, object_key, plane_col, plane_ir = (gl.texture(size, 4, dtype="f4") for _ in range(4))
