@@ -434,9 +434,8 @@ class Renderer:
         # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
         # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
         # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
-        plane_ir = None
         if self.shading == "pixel":
-            ms, ms_depth, ms_fbo, plane_ir = self._lit_per_pixel(objects, lighting, size, view, proj)
+            ms, ms_depth, ms_fbo = self._lit_per_pixel(objects, lighting, size, view, proj)
         else:
             ms, ms_depth, ms_fbo = self._multisampled(size)
             ms_fbo.use()
@@ -451,6 +450,7 @@ class Renderer:
             gl.free(obj)
         # Ir: the planes alone, unshadowed, made as Irpv's planes were (shaded per sample, or
         # once per pixel and filled), so that the two agree where a plane covers part of a pixel
+        plane_ir = self._planes_per_pixel(objects, lighting, size) if self.shading == "pixel" else None
         ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
@@ -496,26 +496,23 @@ class Renderer:
     def _lit_per_pixel(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                        view: np.ndarray, proj: np.ndarray):
         """The lit pass with the light shaded once per pixel (``shading="pixel"``); returns the
-        multisampled targets drawn (:meth:`_multisampled`), to resolve, and the planes alone,
-        unshadowed, once per pixel (a texture, for Ir: :meth:`_fill_planes`)."""
+        multisampled targets drawn (:meth:`_multisampled`), to resolve."""
         gl, ctx = self.gl, self.gl.ctx
         # the light, shaded once per pixel at its centre (1x): the objects over their planes
         # (object colour and coverage: lit.glsl's out_object), and the planes alone with the
-        # objects' shadows (and without, for Ir); then fill.glsl rasterises the same geometry
-        # at SAMPLES per pixel with those colours, and the resolve averages the samples (MSAA's
-        # colour, without llvmpipe shading every sample: a third of the time)
+        # objects' shadows; then fill.glsl rasterises the same geometry at SAMPLES per pixel
+        # with those colours, and the resolve averages the samples (MSAA's colour, without
+        # llvmpipe shading every sample: a third of the time)
         centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
         centre_depth = gl.own(ctx.depth_renderbuffer(size))
-        object_col, object_key, plane_col, plane_ir = (gl.texture(size, 4, dtype="f4") for _ in range(4))
+        object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
         objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
         planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
-        planes_ir_fbo = gl.own(ctx.framebuffer([plane_ir], centre_depth))
-        for fbo, with_objects, shadows in ((objects_fbo, True, True), (planes_fbo, False, True),
-                                           (planes_ir_fbo, False, False)):
+        for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
             fbo.use()
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            self._draw_lit(objects, lighting, objects_too=with_objects, shadows=shadows)
-        for obj in (objects_fbo, planes_fbo, planes_ir_fbo, centre_depth, *centre):  # only their textures are read on
+            self._draw_lit(objects, lighting, objects_too=with_objects)
+        for obj in (objects_fbo, planes_fbo, centre_depth, *centre):  # only their textures are read on
             gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
         other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
@@ -552,7 +549,23 @@ class Renderer:
         for obj in textures.values():
             gl.free(obj)
         gl.wait()
-        return ms, ms_depth, ms_fbo, plane_ir
+        return ms, ms_depth, ms_fbo
+
+    def _planes_per_pixel(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int]):
+        """The objects' ground planes alone, unshadowed, shaded once per pixel at its centre: a
+        texture, for Ir to be filled from as Irpv's planes were (:meth:`_fill_planes`). Made after
+        Irpv's resolve, when most of the multisampled targets are freed."""
+        gl, ctx = self.gl, self.gl.ctx
+        gl.wait()  # the freed targets are released once Irpv's resolve is done: before these exist
+        plane_ir = gl.texture(size, 4, dtype="f4")
+        depth = gl.own(ctx.depth_renderbuffer(size))
+        fbo = gl.own(ctx.framebuffer([plane_ir], depth))
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._draw_lit(objects, lighting, objects_too=False, shadows=False)
+        for obj in (fbo, depth):
+            gl.free(obj)
+        return plane_ir
 
     def _fill_planes(self, objects: Sequence[RenderObject], lighting: Lighting, plane_col: moderngl.Texture) -> None:
         """Rasterise the objects' ground planes into the bound multisampled framebuffer, every
