@@ -532,13 +532,11 @@ class Renderer:
         gl.wait()  # the freed targets are released once drawn: before the multisampled ones exist
         ms, ms_depth, ms_fbo = self._multisampled(size)
         fill, fill_plane = self.programs["fill"], self._fill_plane
-        for prog in (fill, fill_plane):
+        for prog in (fill, fill_plane):  # (the plane variant's texture: _fill_planes)
             prog["u_view"].write(_gl(view))
             prog["u_proj"].write(_gl(proj))
-            for name in textures:
-                if prog.get(name, None) is not None:  # the plane variant reads u_plane_col alone
-                    prog[name].value = units[name]
         for name, texture in textures.items():
+            fill[name].value = units[name]
             texture.use(units[name])
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
