@@ -110,22 +110,23 @@ class Frame:
         return np.asarray(points_v, float) @ m[:3, :3].T + m[:3, 3]
 
     def rect_points(self, r0: int, r1: int, c0: int, c1: int, with_pixels: bool = False,
-                    only: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                    only: np.ndarray | None = None, stride: int = 1) -> tuple[np.ndarray, ...]:
         """Vehicle-frame points (N, 3) and labels (N,) of valid pixels in rows r0:r1, cols c0:c1
         (and their (rows, cols) when ``with_pixels``); ``only``: a (256,) bool table of the
-        label ids wanted (the others are not back-projected)."""
+        label ids wanted (the others are not back-projected); ``stride``: every stride-th row
+        and column only."""
         H, W = self.depth.shape
         r0, r1, c0, c1 = max(r0, 0), min(r1, H), max(c0, 0), min(c1, W)
         if r1 <= r0 or c1 <= c0:
             empty = np.empty(0, np.int64)
             return (np.empty((0, 3)), np.empty(0, np.uint8)) + ((empty, empty) if with_pixels else ())
-        sub = self.depth[r0:r1, c0:c1]
+        sub = self.depth[r0:r1:stride, c0:c1:stride]
         valid = np.isfinite(sub)
         if only is not None:
-            valid &= only[self.label_ids[r0:r1, c0:c1]]
+            valid &= only[self.label_ids[r0:r1:stride, c0:c1:stride]]
         v, u = np.nonzero(valid)
         z = sub[v, u].astype(np.float64)
-        v, u = v + r0, u + c0
+        v, u = v * stride + r0, u * stride + c0
         cam = self.camera
         optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
         m = cam.vehicle_from_optical

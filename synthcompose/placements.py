@@ -26,8 +26,8 @@ from .dataset import ImageSetId
 from .errors import InputError
 from .fileio import read_json, write_json
 from .geometry import Frame
-from .placement import (Placement, PlacementResult, _visibility, fit_ground, label_mask, pose_matrix,
-                        surface_normals)
+from .labels import label_id
+from .placement import GROUND_LEVEL, Placement, PlacementResult, _visibility, fit_ground, ground_points, pose_matrix
 
 FORMAT = "synthcompose-placement/1"
 #: Pipeline.placement_override value: draw a random placement even where a file is saved
@@ -142,23 +142,16 @@ def ground_pose(frame: Frame, x: float, y: float, yaw: float, extents, allowed_i
                 fallback_z: float | None = None, fallback_normal=(0.0, 0.0, 1.0)) -> np.ndarray:
     """(4, 4) pose standing at ground position (x, y) (V) with heading ``yaw``: on the robust
     plane (placement's :func:`fit_ground`) of the ground points around it (of ``allowed_ids``
-    labels when given, else every near-horizontal point); the fallback height and normal when
+    labels when given, else every ground-level label); the fallback height and normal when
     too few points are seen there."""
     l, w, _ = extents
     reach = math.hypot(l, w) / 2 + 0.5
     z0 = fallback_z if fallback_z is not None else 0.0
-    square = np.array([[x + sx * reach, y + sy * reach, z0 + dz] for sx in (-1, 1) for sy in (-1, 1)
-                       for dz in (-0.5, 0.5)])
-    rect = frame.box_rect(square)
     normal, z = np.asarray(fallback_normal, float), z0
-    if rect is not None:
-        only = label_mask(allowed_ids) if allowed_ids is not None and len(allowed_ids) else None
-        pts, _, rr, cc = frame.rect_points(*rect, with_pixels=True, only=only)
-        idx = np.flatnonzero((np.abs(pts[:, 0] - x) <= reach) & (np.abs(pts[:, 1] - y) <= reach))
-        if len(idx):
-            up = surface_normals(frame.depth, frame.camera, rr[idx], cc[idx])[:, 2]
-            idx = idx[up >= math.cos(math.radians(24))]
-        fit = fit_ground(pts[idx], np.array([x, y, z0])) if len(idx) >= 30 else None
+    ids = allowed_ids if allowed_ids is not None and len(allowed_ids) else [label_id(n) for n in GROUND_LEVEL]
+    pts = ground_points(frame, np.array([x, y, z0], float), reach, ids, dz=0.5)
+    if len(pts):
+        fit = fit_ground(pts, np.array([x, y, z0])) if len(pts) >= 30 else None
         if fit is not None:
             (a, b, c), _, _ = fit
             normal = np.array([-a, -b, 1.0]) / math.sqrt(a * a + b * b + 1)

@@ -1,0 +1,235 @@
+"""The rules of one pose, cheapest first: in view, footprint support, local ground, visibility,
+other objects, the scene inside the box. :func:`place_object` (search.py) runs them on its
+candidates, :func:`check_pose` on a pose given outright (an object moved by hand in the preview).
+
+Every comparison of a pose with the real depth allows the stereo noise at that depth
+(noise.py): depth bands grow with z², height bands with z.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..geometry import Frame
+from ..labels import label_id
+from .boxes import (_hides_others, _visibility, box_corners, footprint_corners, footprints_overlap, penetration,
+                    strict_inside)
+from .ground import GroundFit, local_ground
+from .noise import StereoNoise, stereo_noise
+from .road import surface_edges
+from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, KERB_CLEARANCE, MAX_PENETRATION, POSE_GROUND_SEARCH,
+                    SUPPORT_BAND, Placement, PlacementRules, Rejection, label_mask)
+
+#: a footprint sample is seen when the real depth there is not nearer than the sample by more
+#: than this (relative, absolute) or the stereo band
+SEEN_TOL_REL, SEEN_TOL_ABS = 0.02, 0.05
+#: a real point nearer than a footprint sample but lower than this above the pose's plane is
+#: ground (a kerb, a raised sidewalk), not an occluder: it counts as seen and unsupported
+STEP_HEIGHT = 0.3
+
+
+def frame_noise(frame: Frame) -> StereoNoise:
+    """The frame's stereo noise, measured on all of its ground-level labels."""
+    return stereo_noise(frame, [label_id(n) for n in GROUND_LEVEL])
+
+
+def footprint_support(frame: Frame, m: np.ndarray, local: np.ndarray, allowed_ids: np.ndarray,
+                      noise: StereoNoise, band_floor: float = SUPPORT_BAND) -> dict[str, np.ndarray] | None:
+    """For footprint samples ``local`` ((N, 3), object frame, z = 0) of the pose ``m``: which
+    are on screen, seen (not behind something nearer that is not ground), on allowed labels,
+    and on the pose's plane (real point within the height band). None when none is on screen.
+    The placement and the checker share this definition."""
+    cam, depth = frame.camera, frame.depth
+    H, W = frame.shape
+    foot_o = frame.to_optical(local @ m[:3, :3].T + m[:3, 3])
+    with np.errstate(invalid="ignore"):
+        fuv = np.rint(cam.project(foot_o)).astype(int)
+    on_screen = (foot_o[:, 2] > 0.1) & (fuv[:, 0] >= 0) & (fuv[:, 0] < W) & (fuv[:, 1] >= 0) & (fuv[:, 1] < H)
+    if not on_screen.any():
+        return None
+    fu, fv, foot_d = fuv[on_screen, 0], fuv[on_screen, 1], foot_o[on_screen, 2]
+    scene_d = depth[fv, fu].astype(np.float64)
+    finite = np.isfinite(scene_d)
+    # the real point at each sample's pixel, and its height above the pose's plane
+    z = np.where(finite, scene_d, 0.0)
+    real_o = np.column_stack([(fu - cam.u0) * z / cam.fx, (fv - cam.v0) * z / cam.fy, z])
+    real_v = real_o @ cam.vehicle_from_optical[:3, :3].T + cam.vehicle_from_optical[:3, 3]
+    height = (real_v - m[:3, 3]) @ m[:3, 2]
+    tol = noise.depth_band(foot_d, SEEN_TOL_REL * foot_d + SEEN_TOL_ABS)
+    seen = finite & ((scene_d >= foot_d - tol) | (height < STEP_HEIGHT))
+    allowed = label_mask(allowed_ids)[frame.label_ids[fv, fu]]
+    on_plane = finite & (np.abs(height) <= noise.height_band(foot_d, band_floor))
+    return {"on_screen": on_screen, "seen": seen, "allowed": allowed, "on_plane": on_plane}
+
+
+@dataclass(frozen=True, eq=False)
+class PoseTests:
+    """The placement rules for poses of one object (``extents``, l, w, h metres) in one frame,
+    cheapest first. Each returns a :class:`Rejection` or None."""
+
+    frame: Frame
+    extents: tuple[float, float, float]
+    rules: PlacementRules
+    allowed: tuple[str, ...]
+    allowed_ids: np.ndarray
+    edges: np.ndarray  # (N, 2) kerb-line points of the allowed surface (ground plan)
+    grid: np.ndarray  # (45, 3) footprint samples in the object frame, footprint_margin beyond it
+    reach: float  # half-side of the square searched for ground points, metres
+    noise: StereoNoise
+
+    @classmethod
+    def of(cls, frame: Frame, extents, rules: PlacementRules, allowed: Sequence[str]) -> "PoseTests":
+        allowed_ids = np.array([label_id(n) for n in allowed])
+        l, w, _ = extents
+        fm = rules.footprint_margin
+        gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
+        grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+        return cls(frame, extents, rules, tuple(allowed), allowed_ids, surface_edges(frame, allowed_ids), grid,
+                   math.hypot(l, w) / 2 + 0.5, frame_noise(frame))
+
+    def depth_of(self, point: np.ndarray) -> float:
+        return float(self.frame.to_optical(np.asarray(point, float)[None])[0, 2])
+
+    def image(self, m: np.ndarray, heights: bool = True) -> Rejection | None:
+        """Tests in the image: object on screen, footprint on seen, allowed ground (and, with
+        ``heights``, on the pose's plane: no step or kerb under it), no kerb line under it."""
+        frame, rules, camera = self.frame, self.rules, self.frame.camera
+        l, w, _ = self.extents
+        H, W = frame.shape
+        corners_o = frame.to_optical(box_corners(m, self.extents))
+        if (corners_o[:, 2] <= 1.0).any():
+            return Rejection("partly behind the camera", f"a corner {corners_o[:, 2].min():.2f} m in front of it")
+        uv = camera.project(corners_o)
+        out = (uv[:, 0] < 0).any() or (uv[:, 0] > W - 1).any() or (uv[:, 1] < 0).any() or (uv[:, 1] > H - 1).any()
+        if out and not rules.allow_truncation:
+            return Rejection("not fully inside the image", "the box crosses the image border and truncation is off")
+        s = footprint_support(frame, m, self.grid, self.allowed_ids, self.noise)
+        if s is None or s["on_screen"].mean() < 0.5:
+            share = 0.0 if s is None else s["on_screen"].mean()
+            return Rejection("footprint outside the image", f"{share:.0%} of it on screen, needs 50%")
+        seen = s["seen"]
+        if seen.sum() < 0.3 * len(seen):
+            return Rejection("footprint hidden", f"{seen.mean():.0%} of it seen, needs 30%")
+        share = s["allowed"][seen].mean()
+        if share < rules.min_footprint_allowed:
+            return Rejection("footprint off the allowed surface",
+                             f"{share:.0%} of the seen footprint on {'/'.join(self.allowed)}, "
+                             f"needs {rules.min_footprint_allowed:.0%}")
+        if heights:
+            level = s["on_plane"][seen].mean()
+            if level < rules.min_footprint_allowed:
+                return Rejection("footprint off the ground plane (step or kerb)",
+                                 f"{level:.0%} of the seen footprint on the pose's plane, "
+                                 f"needs {rules.min_footprint_allowed:.0%}")
+        # no kerb line of the surface under the footprint
+        c, edges, reach = m[:3, 3], self.edges, self.reach
+        close = edges[(np.abs(edges[:, 0] - c[0]) <= reach + 1) & (np.abs(edges[:, 1] - c[1]) <= reach + 1)]
+        if len(close):
+            local = (close - c[:2]) @ m[:2, :2]
+            if ((np.abs(local[:, 0]) <= l / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= w / 2 + KERB_CLEARANCE)).any():
+                return Rejection("footprint crosses a kerb line", f"a kerb within {KERB_CLEARANCE} m of the footprint")
+        return None
+
+    def ground(self, point: np.ndarray, dz: float = 0.3) -> tuple[GroundFit | None, Rejection | None]:
+        """Robust plane through the allowed points around ``point`` (V): a metric neighbourhood,
+        tolerances that follow the stereo noise at its depth."""
+        rules = self.rules
+        ground = local_ground(self.frame, point, self.reach, self.allowed_ids, self.noise, dz)
+        n = 0 if ground is None else ground.points
+        if ground is None or n < rules.min_ground_points:
+            return None, Rejection("too few ground points",
+                                   f"{n} {'/'.join(self.allowed)} points around it, needs {rules.min_ground_points}")
+        if ground.inliers < rules.min_ground_inliers * n:
+            return ground, Rejection("ground not planar (step or kerb)",
+                                     f"{ground.inliers / n:.0%} of the ground points on one plane, "
+                                     f"needs {rules.min_ground_inliers:.0%}")
+        z = self.depth_of(point)
+        limit = float(self.noise.height_band(z, rules.max_ground_rms))
+        if ground.rms > limit:
+            return ground, Rejection("ground not flat (rms too high)", f"rms {ground.rms:.3f} m > {limit:.3f} m")
+        tilt = math.degrees(math.acos(min(1.0, ground.normal[2])))
+        if tilt > rules.max_ground_tilt_deg:
+            return ground, Rejection("ground too steep", f"{tilt:.1f} deg > {rules.max_ground_tilt_deg} deg")
+        return ground, None
+
+    def off_ground(self, point: np.ndarray, ground: GroundFit, floor: float) -> float | None:
+        """How far ``point`` is from the plane when beyond the band at its depth, else None."""
+        gap = abs(float(point[2]) - float(ground.height(point[0], point[1])))
+        return gap if gap > float(self.noise.height_band(self.depth_of(point), floor)) else None
+
+    def visibility(self, m: np.ndarray, others: Sequence[Placement] = ()) -> tuple[Rejection | None, float, float]:
+        """The visibility rules against the real depth and ``others`` placed before; also
+        returns (share of the object inside the image, share hidden)."""
+        rules = self.rules
+        in_image, hidden, area = _visibility(self.frame, m, self.extents, others, self.noise)
+        if hidden > rules.max_occluded_fraction:
+            why = Rejection("too much hidden by the scene",
+                            f"{hidden:.0%} hidden, at most {rules.max_occluded_fraction:.0%}")
+            return why, in_image, hidden
+        visible = area * in_image * (1.0 - hidden)
+        if visible < rules.min_visible_pixels:
+            why = Rejection("too few visible pixels", f"about {visible:.0f} seen, needs {rules.min_visible_pixels}")
+            return why, in_image, hidden
+        if others and _hides_others(self.frame, m, self.extents, others, rules, self.noise):
+            why = Rejection("would hide an object placed before",
+                            f"it would leave one more than {rules.max_occluded_fraction:.0%} hidden")
+            return why, in_image, hidden
+        return None, in_image, hidden
+
+    def overlap(self, m: np.ndarray, other_prints: Sequence[np.ndarray]) -> Rejection | None:
+        """No overlap with the footprints (grown by half the object gap) of objects placed before."""
+        mine = footprint_corners(m, self.extents, self.rules.object_gap / 2)
+        if any(footprints_overlap(mine, o) for o in other_prints):
+            return Rejection("overlaps another inserted object", f"closer than {self.rules.object_gap} m")
+        return None
+
+    def scene(self, m: np.ndarray) -> Rejection | None:
+        """No scene point inside the box (above the ground's noise band): the pixel grid as
+        index, then the strict test; and none deeper inside than MAX_PENETRATION."""
+        frame, rules = self.frame, self.rules
+        rect = frame.box_rect(box_corners(m, self.extents, rules.margin))
+        pts, _ = frame.rect_points(*rect) if rect else (np.empty((0, 3)), None)
+        clearance = scene_clearance(self.noise, self.depth_of(m[:3, 3]), rules.clearance)
+        inside = int(strict_inside(pts, m, self.extents, clearance, rules.margin).sum())
+        if inside >= rules.min_collision_points:
+            return Rejection("intersects the scene", f"{inside} scene points inside the box")
+        deepest = penetration(pts, m, self.extents, clearance)
+        if deepest > MAX_PENETRATION:
+            return Rejection("intersects the scene", f"a scene point {deepest:.2f} m inside the box")
+        return None
+
+
+def scene_clearance(noise: StereoNoise, z: float, floor: float) -> float:
+    """Scene points lower than this above an object's ground plane are ground, not obstacles:
+    the rules' clearance or the stereo height band at the object's depth (checker and placement)."""
+    return float(noise.height_band(z, floor))
+
+
+def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules: PlacementRules,
+               allowed: Sequence[str] | None = None, others: Sequence[Placement] = ()) -> Rejection | None:
+    """The batch's placement rules on a pose given outright (moved by hand in the preview, or
+    saved): the first rule it breaks, or None when the batch would have accepted it. ``others``:
+    the objects placed before it. Orientation rules (road direction, parked, junctions) are
+    about drawing candidates and are not checked."""
+    tests = PoseTests.of(frame, extents, rules, tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",))))
+    m = np.asarray(matrix, float)
+    why = tests.image(m, heights=False)
+    if why:
+        return why
+    ground, why = tests.ground(m[:3, 3], dz=POSE_GROUND_SEARCH)
+    if why:
+        return why
+    foot = box_corners(m, extents)[::2]  # the 4 bottom corners
+    if any(tests.off_ground(c, ground, rules.max_ground_rms + 0.02) is not None for c in foot):
+        gap = float(np.abs(foot[:, 2] - ground.height(foot[:, 0], foot[:, 1])).max())
+        return Rejection("object is off the fitted ground", f"a footprint corner {gap:.2f} m from the ground plane")
+    why = tests.image(m)
+    if why:
+        return why
+    prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
+    # collisions before visibility (the batch's order is the other way round): an object moved
+    # onto another is said to collide, not to be hidden by it
+    return tests.overlap(m, prints) or tests.scene(m) or tests.visibility(m, others)[0]
