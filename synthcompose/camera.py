@@ -22,6 +22,7 @@ roll); the intrinsic block (fx, fy, u0, v0). Values differ between frames.
 from __future__ import annotations
 
 import math
+from functools import cached_property
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -119,22 +120,31 @@ class Camera:
     def position(self) -> np.ndarray:
         return np.array([self.x, self.y, self.z])
 
-    @property
-    def vehicle_from_optical(self) -> np.ndarray:
-        """(4, 4) homogeneous transform taking optical-frame points to the vehicle frame."""
+    @cached_property
+    def _vehicle_from_optical(self) -> np.ndarray:
         m = np.eye(4)
         m[:3, :3] = self.rotation @ OPTICAL_FROM_CAMERA.T
         m[:3, 3] = self.position
         return m
 
-    @property
-    def optical_from_vehicle(self) -> np.ndarray:
-        """(4, 4) inverse of :attr:`vehicle_from_optical`."""
+    @cached_property
+    def _optical_from_vehicle(self) -> np.ndarray:
         r = OPTICAL_FROM_CAMERA @ self.rotation.T
         m = np.eye(4)
         m[:3, :3] = r
         m[:3, 3] = -r @ self.position
         return m
+
+    @property
+    def vehicle_from_optical(self) -> np.ndarray:
+        """(4, 4) homogeneous transform taking optical-frame points to the vehicle frame (a
+        copy of the one worked out once per camera: placement asks for it thousands of times)."""
+        return self._vehicle_from_optical.copy()
+
+    @property
+    def optical_from_vehicle(self) -> np.ndarray:
+        """(4, 4) inverse of :attr:`vehicle_from_optical`."""
+        return self._optical_from_vehicle.copy()
 
     def project(self, points_optical: np.ndarray) -> np.ndarray:
         """(N, 3) optical-frame points -> (N, 2) pixel coordinates (u, v); z must be > 0."""

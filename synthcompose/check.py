@@ -23,12 +23,15 @@ import numpy as np
 
 from .dataset import ImageSetId, read_image_set
 from .fileio import read_json, write_json
-from .geometry import disparity_to_depth, make_frame
+from .geometry import make_frame
 from .labels import label_id
-from .placement import PlacementRules, fit_ground, fit_road_line, penetration, surface_edges
+from .placement import (MAX_PENETRATION, PlacementRules, footprint_support, frame_noise, local_ground, penetration,
+                        road_line, scene_clearance)
+from .surfaces import frame_for
 
 #: what the checks require (issue: placement a dataset can trust)
-LIMITS = {"footprint_on_allowed": 0.95, "ground_gap_m": 0.05, "penetration_m": 0.05, "yaw_to_road_deg": 10.0}
+LIMITS = {"footprint_on_allowed": 0.95, "ground_gap_m": 0.05, "penetration_m": MAX_PENETRATION,
+          "yaw_to_road_deg": 10.0}
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,8 @@ class ObjectCheck:
     penetration_m: float
     occluded_fraction: float
     yaw_to_road_deg: float | None
+    distance_m: float = float("nan")
+    footprint_on_truth: float | None = None  # unlabelled sets with a labelled twin: share on the true labels
 
     @property
     def failures(self) -> list[str]:
@@ -63,68 +68,81 @@ def _ident_from_record(record: dict) -> tuple[Path, ImageSetId]:
     return rgb.parents[3], ImageSetId(split, city, seq, frame)
 
 
-def check_record(record: dict, rules: PlacementRules = PlacementRules()) -> list[ObjectCheck]:
+def _footprint_grid(l: float, w: float) -> np.ndarray:
+    gx, gy = np.meshgrid(np.linspace(-l / 2, l / 2, 21), np.linspace(-w / 2, w / 2, 11))
+    return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+
+
+def check_record(record: dict, rules: PlacementRules = PlacementRules(),
+                 truth_root: Path | None = None) -> list[ObjectCheck]:
+    """The figures of every object of one record, measured on its input image set with the
+    placement's own definitions (footprint support, local ground, clearance, road line); the
+    frame is built as the pipeline built it (surfaces found where the set has no labels).
+    ``truth_root``: a labelled Cityscapes root holding the same frame (the development set's
+    twin), to measure unlabelled placements against the true labels too."""
     root, ident = _ident_from_record(record)
     image_set = read_image_set(root, ident)
     cam = image_set.camera
-    frame = make_frame(disparity_to_depth(image_set.disparity, cam), image_set.label_ids, cam)
-    H, W = frame.shape
+    frame, _ = frame_for(image_set)
+    truth = None
+    if truth_root is not None and not image_set.labelled:
+        twin = next((ImageSetId(s, ident.city, ident.seq, ident.frame) for s in ("train", "val", "test")
+                     if ImageSetId(s, ident.city, ident.seq, ident.frame).path(truth_root, "labelIds").exists()), None)
+        if twin is not None:
+            t = read_image_set(truth_root, twin)
+            truth = make_frame(frame.depth, t.label_ids, cam)
+    noise = frame_noise(frame)
     out = []
     for obj in record.get("objects", []):
         m = np.array(obj["pose"]["vehicle"]["matrix"], float)
         l, w, h = obj["extents_m"]
         allowed = np.array([label_id(s) for s in obj["allowed_surfaces"]])
-        # footprint seen on allowed labels
-        gx, gy = np.meshgrid(np.linspace(-l / 2, l / 2, 21), np.linspace(-w / 2, w / 2, 11))
-        foot = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)]) @ m[:3, :3].T + m[:3, 3]
-        opt = frame.to_optical(foot)
-        uv = np.rint(cam.project(opt)).astype(int)
-        ok = (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
-        u, v, z = uv[ok, 0], uv[ok, 1], opt[ok, 2]
-        seen = frame.depth[v, u] >= z * 0.98 - 0.05
-        share = float(np.isin(frame.label_ids[v, u][seen], allowed).mean()) if seen.any() else 0.0
-        # ground gap: corners of the footprint vs the real ground plane around the object
+        grid = _footprint_grid(l, w)
+
+        def share_on(f):
+            sup = footprint_support(f, m, grid, allowed, noise)
+            if sup is None or not sup["seen"].any():
+                return 0.0
+            return float(sup["allowed"][sup["seen"]].mean())
+
+        share = share_on(frame)
+        # ground gap: corners of the footprint vs the robust local ground plane around the object
         reach = math.hypot(l, w) / 2 + 0.5
-        square = m[:3, 3] + np.array([[sx * reach, sy * reach, dz] for sx in (-1, 1) for sy in (-1, 1)
-                                      for dz in (-0.3, 0.3)])
-        rect = frame.box_rect(square)
+        fit = local_ground(frame, m[:3, 3], reach, allowed, noise)
         gap = float("nan")
-        if rect is not None:
-            pts, labs = frame.rect_points(*rect)
-            c = m[:3, 3]
-            near = pts[np.isin(labs, allowed) & (np.abs(pts[:, 0] - c[0]) <= reach) & (np.abs(pts[:, 1] - c[1]) <= reach)]
-            fit = fit_ground(near, c)
-            if fit is not None:
-                (a, b, cc), _, _ = fit
-                corners = foot.reshape(11, 21, 3)[[0, 0, -1, -1], [0, -1, 0, -1]]
-                gap = float(np.abs(corners[:, 2] - (a * corners[:, 0] + b * corners[:, 1] + cc)).max())
-        # penetration of scene points into the box
-        grow = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])
-        rect = frame.box_rect(grow @ m[:3, :3].T + m[:3, 3])
+        if fit is not None and np.isfinite(fit.rms):
+            corners = grid.reshape(11, 21, 3)[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
+            gap = float(np.abs(corners[:, 2] - fit.height(corners[:, 0], corners[:, 1])).max())
+        # penetration of scene points into the box (above the ground's noise band)
+        box = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])
+        rect = frame.box_rect(box @ m[:3, :3].T + m[:3, 3])
         pen = 0.0
         if rect is not None:
             pts, _ = frame.rect_points(*rect)
-            pen = penetration(pts, m, (l, w, h), rules.clearance)
+            z = float(frame.to_optical(m[:3, 3][None])[0, 2])
+            pen = penetration(pts, m, (l, w, h), scene_clearance(noise, z, rules.clearance))
         # heading against the local road direction
         yaw_err = None
         if obj.get("orientation") in ("along-road", "parked"):
-            line = fit_road_line(surface_edges(frame, allowed), m[:3, 3], np.random.default_rng(0))
+            line = road_line(frame, allowed, m[:3, 3])
             if line is not None:
                 diff = math.atan2(m[1, 0], m[0, 0]) - line.angle
                 yaw_err = math.degrees(abs(math.asin(max(-1.0, min(1.0, math.sin(diff))))))
+        dist = float(math.hypot(m[0, 3] - cam.x, m[1, 3] - cam.y))
         out.append(ObjectCheck(record["image_set"], obj["index"], obj["name"], round(share, 4), round(gap, 4),
                                round(pen, 4), obj.get("occluded_fraction", float("nan")),
-                               None if yaw_err is None else round(yaw_err, 2)))
+                               None if yaw_err is None else round(yaw_err, 2), round(dist, 2),
+                               None if truth is None else round(share_on(truth), 4)))
     return out
 
 
-def check_output(out_root: Path) -> list[ObjectCheck]:
+def check_output(out_root: Path, truth_root: Path | None = None) -> list[ObjectCheck]:
     """Check every record under ``out_root/synthcompose``; writes ``placement_check.json``."""
     results: list[ObjectCheck] = []
     for path in sorted((Path(out_root) / "synthcompose").rglob("*_synthcompose.json")):
         record = read_json(path)
         if record.get("status") == "done":
-            results.extend(check_record(record))
+            results.extend(check_record(record, truth_root=truth_root))
     write_json(Path(out_root) / "placement_check.json",
                {"limits": LIMITS, "objects": [asdict(r) | {"failures": r.failures} for r in results]})
     return results

@@ -30,13 +30,14 @@ from .compose import CameraMatch, Composed, Composer, SceneLayers
 from .dataset import ImageSet, ImageSetId, read_image_set
 from .errors import InputError, SynthComposeError
 from .frequency import object_weights
-from .geometry import Frame, disparity_to_depth, ground_labels_from_depth, make_frame
+from .geometry import Frame, disparity_to_depth
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .lighting import LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
-from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, check_pose, place_object
+from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, check_pose, frame_noise, place_object
+from .surfaces import Surfaces, frame_for
 from .render import RenderObject, Renderer
 from .writer import write_outputs, write_record
 from .placements import IGNORE_SAVED, read_saved, saved_result  # saved placements (preview)
@@ -114,7 +115,7 @@ class _Prepared:
     camera_json: bytes
     depth: np.ndarray  # (H, W) float32 metres, inf where unknown
     frame: Frame
-    ground_plane: np.ndarray | None  # unlabelled image sets: the ground plane found from the depth
+    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (surfaces.py)
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
     estimate: LightEstimate | None  # lighting "estimate" mode
     match: CameraMatch | None  # lighting "camera_match"
@@ -302,12 +303,8 @@ class Pipeline:
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)
             rng = image_set_rng(m.seed, ident)
-            ground_plane = None
-            if image_set.labelled:
-                frame = make_frame(depth, image_set.label_ids, cam)
-            else:  # no labels (test split): the drivable ground from the geometry alone
-                pseudo, ground_plane = ground_labels_from_depth(depth, cam, rng)
-                frame = make_frame(depth, pseudo, cam, labelled=False)
+            # no labels (test split): road and sidewalk found from the disparity and the photo
+            frame, surfaces = frame_for(image_set, depth)
         # --- lighting (lighting.py): the photo's own light, and its camera's blur and noise
         with _timed(timings, "lighting"):
             estimate = match = None
@@ -316,7 +313,7 @@ class Pipeline:
             if m.camera_match:
                 match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
         # --- end lighting
-        return _Prepared(image_set, camera_json, depth, frame, ground_plane, rng, estimate, match)
+        return _Prepared(image_set, camera_json, depth, frame, surfaces, rng, estimate, match)
 
     def _compute(self, ident: ImageSetId, prep: "_Prepared", timings: dict[str, float]) -> "_Computed | Outcome":
         """Placement, render and compose: what the writer needs, or the outcome when nothing is placed."""
@@ -359,10 +356,8 @@ class Pipeline:
             "seed": m.seed,
             "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
                                                                    "camera")},
-            "labels": "gtFine" if image_set.labelled else {
-                "source": "none: road found from the disparity alone",
-                "ground_plane_z_axb": None if prep.ground_plane is None else [round(float(v), 5)
-                                                                             for v in prep.ground_plane]},
+            "labels": "gtFine" if image_set.labelled else prep.surfaces.to_dict(),
+            "stereo_noise": frame_noise(frame).to_dict(),
             "lighting": fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
             else {"mode": "estimate"},  # lighting.py; the estimate replaces it below
             "objects": [],

@@ -12,7 +12,7 @@ from .boxes import (_visibility, box_corners, footprint_corners, footprints_over
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
 from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_clearance
-from .road import RoadLine, fit_road_line, surface_edges
+from .road import RoadLine, fit_road_line, road_line, surface_edges
 from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, INLIER_BAND, KERB_CLEARANCE, MAX_PENETRATION, ORIENTATION,
                     ORIENTATIONS, POSE_GROUND_SEARCH, RULE_OF, Placement, PlacementResult, PlacementRules, Rejection,
                     label_mask)
@@ -23,6 +23,6 @@ __all__ = [
     "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult", "PlacementRules",
     "PoseTests", "Rejection", "RoadLine", "StereoNoise", "_visibility", "box_corners", "check_pose", "fit_ground",
     "fit_road_line", "footprint_corners", "footprint_support", "footprints_overlap", "frame_noise", "ground_points",
-    "label_mask", "local_ground", "penetration", "place_object", "pose_matrix", "prefilter", "rays_hit_box",
+    "label_mask", "local_ground", "penetration", "place_object", "pose_matrix", "prefilter", "rays_hit_box", "road_line",
     "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
 ]

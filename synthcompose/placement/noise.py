@@ -57,17 +57,20 @@ class StereoNoise:
         return {"sigma_disparity_px": round(self.sigma_d, 4)}
 
 
-def measure_sigma(disparity_px: np.ndarray, ground: np.ndarray, step: int = STEP, stride: int = 4) -> float:
+def measure_sigma(disparity_px: np.ndarray, ground: np.ndarray, step: int = STEP, stride: int = 4,
+                  row_step: int | None = None) -> float:
     """Robust σd (pixels) of the disparity (H, W float, NaN where invalid) over the ``ground``
     mask: the MAD of horizontal and vertical second differences over ``step`` pixels, on every
-    ``stride``-th row (enough samples; a tenth of the cost)."""
+    ``stride``-th row (enough samples; a tenth of the cost). ``row_step``: the vertical step
+    when the columns were subsampled (default ``step``)."""
     H, W = disparity_px.shape
-    r = np.arange(step, H - step, stride)
+    rs = step if row_step is None else row_step
+    r = np.arange(rs, H - rs, stride)
     d, g = disparity_px[r], ground[r]
     horizontal = d[:, step:-step] - 0.5 * (d[:, :-2 * step] + d[:, 2 * step:])
     ok_h = g[:, step:-step] & g[:, :-2 * step] & g[:, 2 * step:]
-    vertical = d - 0.5 * (disparity_px[r - step] + disparity_px[r + step])
-    ok_v = g & ground[r - step] & ground[r + step]
+    vertical = d - 0.5 * (disparity_px[r - rs] + disparity_px[r + rs])
+    ok_v = g & ground[r - rs] & ground[r + rs]
     res = [horizontal[ok_h & np.isfinite(horizontal)], vertical[ok_v & np.isfinite(vertical)]]
     r = np.concatenate(res)
     if len(r) < 500:
@@ -83,10 +86,14 @@ def stereo_noise(frame, ground_ids) -> StereoNoise:
     if key not in frame.cache:
         cam = frame.camera
         fb = float(cam.fx * cam.baseline)
+        # every other column, differences over STEP pixels of the full image
+        depth = frame.depth[:, ::2]
         with np.errstate(divide="ignore"):
-            disparity = np.where(np.isfinite(frame.depth), np.float32(fb) / frame.depth, np.nan)
+            disparity = (np.float32(fb) / depth).astype(np.float32)  # 0 where depth is inf
+        disparity[disparity <= 0] = np.nan
         lut = np.zeros(256, bool)
         lut[np.asarray(list(ground_ids), int)] = True
-        sigma = measure_sigma(disparity.astype(np.float32), lut[frame.label_ids] & np.isfinite(disparity))
+        ground = lut[frame.label_ids[:, ::2]] & np.isfinite(disparity)
+        sigma = measure_sigma(disparity, ground, step=STEP // 2, stride=6, row_step=STEP)
         frame.cache[key] = StereoNoise(sigma, fb, float(cam.z))
     return frame.cache[key]

@@ -29,6 +29,8 @@ SEEN_TOL_REL, SEEN_TOL_ABS = 0.02, 0.05
 #: a real point nearer than a footprint sample but lower than this above the pose's plane is
 #: ground (a kerb, a raised sidewalk), not an occluder: it counts as seen and unsupported
 STEP_HEIGHT = 0.3
+#: the scene test samples the box's pixel rectangle at about this spacing, metres
+SCENE_SPACING = 0.03
 
 
 def frame_noise(frame: Frame) -> StereoNoise:
@@ -191,8 +193,12 @@ class PoseTests:
         index, then the strict test; and none deeper inside than MAX_PENETRATION."""
         frame, rules = self.frame, self.rules
         rect = frame.box_rect(box_corners(m, self.extents, rules.margin))
-        pts, _ = frame.rect_points(*rect) if rect else (np.empty((0, 3)), None)
-        clearance = scene_clearance(self.noise, self.depth_of(m[:3, 3]), rules.clearance)
+        z = self.depth_of(m[:3, 3])
+        # every pixel would be a few millimetres apart near the camera: sample the box's
+        # rectangle every SCENE_SPACING metres (at the object's depth), never sparser than 4 px
+        stride = int(np.clip(SCENE_SPACING * frame.camera.fx / max(z, 0.1), 1, 4))
+        pts, _ = frame.rect_points(*rect, stride=stride) if rect else (np.empty((0, 3)), None)
+        clearance = scene_clearance(self.noise, z, rules.clearance)
         inside = int(strict_inside(pts, m, self.extents, clearance, rules.margin).sum())
         if inside >= rules.min_collision_points:
             return Rejection("intersects the scene", f"{inside} scene points inside the box")

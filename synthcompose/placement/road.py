@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from ..geometry import Frame
@@ -20,6 +21,35 @@ class RoadLine:
     offset: float
     inliers: int
     ambiguous: bool = False  # another strong kerb line crosses it (a junction)
+    centre: tuple[float, float] = (0.0, 0.0)  # a point of the line (mean of its inliers)
+
+    def offset_of(self, point) -> float:
+        """Signed lateral offset of a ground-plan ``point`` from the line, metres."""
+        return float((point[0] - self.centre[0]) * -math.sin(self.angle)
+                     + (point[1] - self.centre[1]) * math.cos(self.angle))
+
+
+#: road lines are fitted once per cell of this size (metres) of the ground plan
+LINE_CELL = 2.5
+#: at most this many kerb points go into one RANSAC (an even subsample)
+LINE_POINTS = 800
+
+
+def road_line(frame: Frame, surface_ids: np.ndarray, point: np.ndarray) -> RoadLine | None:
+    """The kerb line of the surface near ``point``, fitted once per LINE_CELL cell around the
+    cell's centre (cached on the frame), with the offset of ``point`` itself. The placement
+    and the checker both ask here, so they agree on the road's direction."""
+    edges = surface_edges(frame, surface_ids)
+    if not len(edges):
+        return None
+    cell = (int(math.floor(point[0] / LINE_CELL)), int(math.floor(point[1] / LINE_CELL)))
+    key = ("road_line", tuple(int(i) for i in surface_ids), cell)
+    if key not in frame.cache:
+        centre = (np.array(cell, float) + 0.5) * LINE_CELL
+        frame.cache[key] = fit_road_line(edges, centre, np.random.default_rng([cell[0] & 0xFFFF, cell[1] & 0xFFFF]))
+    line = frame.cache[key]
+    return None if line is None else RoadLine(line.angle, line.offset_of(point), line.inliers, line.ambiguous,
+                                              line.centre)
 
 
 def surface_edges(frame: Frame, surface_ids: np.ndarray) -> np.ndarray:
@@ -31,21 +61,15 @@ def surface_edges(frame: Frame, surface_ids: np.ndarray) -> np.ndarray:
     return frame.cache[key]
 
 
-def _surface_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
-    lab = frame.label_ids
+def _surface_edges(frame: Frame, road_ids: np.ndarray, stride: int = 2) -> np.ndarray:
+    """Kerb points on every ``stride``-th row and column (the lines are metres long)."""
+    lab = frame.label_ids[::stride, ::stride]
     road = label_mask(road_ids)[lab]
     side = label_mask([label_id(n) for n in GROUND_LEVEL])[lab] & ~road
-    edge = np.zeros_like(road)
-    for dr, dc in ((2, 0), (-2, 0), (0, 2), (0, -2)):
-        shifted = np.zeros_like(side)
-        rs = slice(max(dr, 0), lab.shape[0] + min(dr, 0))
-        rd = slice(max(-dr, 0), lab.shape[0] + min(-dr, 0))
-        cs = slice(max(dc, 0), lab.shape[1] + min(dc, 0))
-        cd = slice(max(-dc, 0), lab.shape[1] + min(-dc, 0))
-        shifted[rd, cd] = side[rs, cs]
-        edge |= road & shifted
-    edge &= np.isfinite(frame.depth)
+    near_side = cv2.dilate(side.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    edge = road & near_side & np.isfinite(frame.depth[::stride, ::stride])
     v, u = np.nonzero(edge)
+    v, u = v * stride, u * stride
     z = frame.depth[v, u].astype(np.float64)
     cam = frame.camera
     optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
@@ -56,40 +80,49 @@ def _surface_edges(frame: Frame, road_ids: np.ndarray) -> np.ndarray:
 def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, band: float,
                  away_from: float | None = None) -> tuple[np.ndarray, np.ndarray, float] | None:
     """Best line through (N, 2) points: (a point on it, unit normal, score). ``away_from``: only
-    lines at more than 30 degrees from that angle."""
-    best, best_score = None, 0.0
+    lines at more than 30 degrees from that angle. All hypotheses are scored at once."""
     if len(pts) < 2:
         return None
-    for _ in range(iterations):
-        i, j = rng.integers(len(pts), size=2)
-        d = pts[j] - pts[i]
-        length = math.hypot(*d)
-        if length < 1.0:
-            continue
-        d = d / length
-        if away_from is not None and abs(d[0] * math.sin(away_from) - d[1] * math.cos(away_from)) < 0.5:
-            continue
-        n = np.array([-d[1], d[0]])
-        rel = pts - pts[i]
-        along = rel[np.abs(rel @ n) < band] @ d
-        # score by the length of line covered (0.5 m bins), not by the point count: seen
-        # from a car, ground far away is sampled densely across the view and sparsely along
-        # it, so counting points would favour any kerb that crosses the view; for the same
-        # reason prefer lines along the view, as streets ahead mostly run
-        score = len(np.unique(np.floor(along / 0.5))) * (0.5 + 0.5 * d[0] ** 2)
-        if score > best_score:
-            best, best_score = (pts[i], n), score
-    return None if best is None else (best[0], best[1], best_score)
+    i, j = rng.integers(len(pts), size=(2, iterations))
+    d = pts[j] - pts[i]
+    length = np.hypot(d[:, 0], d[:, 1])
+    ok = length >= 1.0
+    d = d[ok] / length[ok, None]
+    i = i[ok]
+    if away_from is not None:
+        ok = np.abs(d[:, 0] * math.sin(away_from) - d[:, 1] * math.cos(away_from)) >= 0.5
+        d, i = d[ok], i[ok]
+    if not len(i):
+        return None
+    n = np.column_stack([-d[:, 1], d[:, 0]])
+    rel = pts[None, :, :] - pts[i][:, None, :]  # (K, N, 2)
+    near = np.abs(np.einsum("knc,kc->kn", rel, n)) < band
+    along = np.einsum("knc,kc->kn", rel, d)
+    # score by the length of line covered (0.5 m bins), not by the point count: seen from a
+    # car, ground far away is sampled densely across the view and sparsely along it, so
+    # counting points would favour any kerb that crosses the view; for the same reason prefer
+    # lines along the view, as streets ahead mostly run
+    bins = np.floor(along / 0.5).astype(np.int64)
+    lo = bins.min()
+    width = int(bins.max() - lo + 1)
+    flat = (np.arange(len(i))[:, None] * width + (bins - lo))[near]
+    covered = (np.bincount(flat, minlength=len(i) * width).reshape(len(i), width) > 0).sum(axis=1)
+    score = covered * (0.5 + 0.5 * d[:, 0] ** 2)
+    best = int(np.argmax(score))
+    if score[best] <= 0:
+        return None
+    return pts[i[best]], n[best], float(score[best])
 
 
 def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator | None = None,
                   radius: float = 15.0, iterations: int = 80, band: float = 0.15) -> RoadLine | None:
     """RANSAC kerb line through the edge points within ``radius`` of ``point`` (ground plan);
-    flagged ambiguous where a second strong line crosses it (a junction). Without ``rng`` the
-    draw is seeded by the point's position, so the placement and the checker see one line."""
+    flagged ambiguous where a second strong line crosses it (a junction)."""
     near = edges[np.hypot(edges[:, 0] - point[0], edges[:, 1] - point[1]) <= radius]
     if rng is None:
-        rng = np.random.default_rng([int(abs(point[0]) * 10), int(abs(point[1]) * 10)])
+        rng = np.random.default_rng(0)
+    if len(near) > LINE_POINTS:
+        near = near[:: int(math.ceil(len(near) / LINE_POINTS))]
     if len(near) < 20:
         return None
     found = _ransac_line(near, rng, iterations, band)
@@ -109,4 +142,5 @@ def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator
     normal = np.array([-math.sin(angle), math.cos(angle)])
     rival = _ransac_line(near[~on_line], rng, iterations, band, away_from=angle)
     ambiguous = rival is not None and rival[2] > 0.5 * score
-    return RoadLine(angle, float((point[:2] - centre) @ normal), len(inl), bool(ambiguous))
+    return RoadLine(angle, float((point[:2] - centre) @ normal), len(inl), bool(ambiguous),
+                    (float(centre[0]), float(centre[1])))

@@ -1,0 +1,139 @@
+"""Evaluate the main job on any Cityscapes root (real frames first): one batch with the bundled
+manifest's objects, then per image set the objects asked and placed, the rejection reasons,
+the check-placement figures and the time per stage, and the totals.
+
+    python benchmarks/eval_real.py ROOT [--truth LABELLED_ROOT] [--objects 3] [--seed 7] [--out DIR]
+    python benchmarks/eval_real.py --generated 4      # the same on generated scenes, same run
+
+ROOT: a Cityscapes root (leftImg8bit/, disparity/, camera/, gtFine/ when labelled). --truth: a
+labelled root holding the same frames, to measure placements on an unlabelled root against the
+true labels. Outputs go to a temporary folder unless --out is given (never commit outputs made
+from real frames: Cityscapes' licence forbids redistribution).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from synthcompose.batch import STAGES, run_batch  # noqa: E402
+from synthcompose.check import LIMITS, check_output  # noqa: E402
+from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.manifest import load_manifest  # noqa: E402
+
+
+def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path) -> Path:
+    """The bundled demo manifest's objects (model paths made absolute), on ``root``."""
+    demo = REPO / "assets" / "demo" / "manifest.json"
+    m = json.loads(demo.read_text())
+    for obj in m["objects"]:
+        if not obj["model"].startswith("builtin:"):
+            obj["model"] = str((demo.parent / obj["model"]).resolve())
+    splits = sorted({i.split for i in find_image_sets(root)})
+    m.update(dataset=str(root), output=str(out), splits=splits, seed=seed, objects_per_image=objects)
+    path = folder / "eval_manifest.json"
+    path.write_text(json.dumps(m, indent=2))
+    return path
+
+
+def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None, label: str) -> dict:
+    manifest = load_manifest(write_manifest(root, out, objects, seed, out.parent))
+    summary = run_batch(manifest, workers=1, progress=False, resume=False)
+    checks = check_output(out, truth_root=truth)
+    by_set: dict[str, list] = {}
+    for c in checks:
+        by_set.setdefault(c.image_set, []).append(c)
+    print(f"\n== {label}: {root}")
+    print(f"{'image set':<44}{'asked':>6}{'placed':>7}{'ok':>4}  stage seconds {' '.join(STAGES)}  / rejections")
+    asked = placed = ok = 0
+    reasons: Counter[str] = Counter()
+    for o in sorted(summary.outcomes, key=lambda o: o.key):
+        rec_path = next((out / "synthcompose").rglob(f"{o.key.split('/')[-1]}_synthcompose.json"), None)
+        rec = json.loads(rec_path.read_text()) if rec_path else {}
+        n_placed = len(rec.get("objects", []))
+        n_asked = n_placed + len(rec.get("not_placed", []))
+        if not n_asked:
+            n_asked = objects
+        cs = by_set.get(o.key, [])
+        n_ok = sum(not c.failures for c in cs)
+        asked, placed, ok = asked + n_asked, placed + n_placed, ok + n_ok
+        why: Counter[str] = Counter()
+        for f in rec.get("not_placed", []):
+            why.update(f.get("rejections", {}))
+        for r in rec.get("objects", []):
+            why.update(r.get("placement", {}).get("rejections", {}))
+        reasons.update(why)
+        stages = " ".join(f"{o.timings.get(s, 0.0):.2f}" for s in STAGES)
+        top = ", ".join(f"{k} x{v}" for k, v in why.most_common(3))
+        print(f"{o.key:<44}{n_asked:>6}{n_placed:>7}{n_ok:>4}  {stages}  / {top}")
+    print(f"{'object':<12}{'dist m':>7}{'foot':>6}{'truth':>6}{'gap m':>7}{'pen m':>7}{'occl':>6}{'yaw°':>6}  verdict")
+    for c in checks:
+        yaw = "-" if c.yaw_to_road_deg is None else f"{c.yaw_to_road_deg:.1f}"
+        tr = "-" if c.footprint_on_truth is None else f"{c.footprint_on_truth:.2f}"
+        verdict = "ok" if not c.failures else "FAIL: " + ", ".join(c.failures)
+        print(f"{c.name[:12]:<12}{c.distance_m:>7.1f}{c.footprint_on_allowed:>6.2f}{tr:>6}{c.ground_gap_m:>7.3f}"
+              f"{c.penetration_m:>7.3f}{c.occluded_fraction:>6.2f}{yaw:>6}  {verdict}")
+    means = summary.stage_means()
+    per_object = means.get("placement", 0.0) / max(placed / max(summary.count("done"), 1), 1e-9)
+    on_truth = [c.footprint_on_truth for c in checks if c.footprint_on_truth is not None]
+    result = {
+        "asked": asked, "placed": placed, "placed_share": placed / asked if asked else 0.0,
+        "pass_strict": ok, "pass_share": ok / placed if placed else 0.0,
+        "placement_ms_per_object": 1000 * per_object,
+        "stage_mean_s": means, "rejections": dict(reasons.most_common(8)),
+        "on_truth_ge_095": (sum(v >= LIMITS["footprint_on_allowed"] for v in on_truth), len(on_truth)),
+    }
+    print(f"totals: {placed}/{asked} placed ({result['placed_share']:.0%}), {ok}/{placed} pass check-placement "
+          f"--strict ({result['pass_share']:.0%}), placement {result['placement_ms_per_object']:.0f} ms per object; "
+          f"mean stage s: " + ", ".join(f"{k} {v:.2f}" for k, v in means.items()))
+    if on_truth:
+        print(f"on the true labels: {result['on_truth_ge_095'][0]}/{len(on_truth)} footprints >= 0.95 on the allowed class")
+    print("rejections (all attempts):", ", ".join(f"{k} x{v}" for k, v in reasons.most_common(6)))
+    return result
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("root", nargs="?", type=Path, help="Cityscapes root (real frames)")
+    ap.add_argument("--truth", type=Path, help="labelled root with the same frames (for an unlabelled ROOT)")
+    ap.add_argument("--generated", type=int, default=0, help="also N generated scenes, 2048x1024, same run")
+    ap.add_argument("--objects", type=int, default=3, help="objects asked per image set")
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--out", type=Path, help="keep the outputs here (default: a temporary folder)")
+    ap.add_argument("--json", type=Path, help="write the totals here")
+    a = ap.parse_args(argv)
+    if a.root is None and not a.generated:
+        ap.error("give a ROOT, --generated N, or both")
+    results = {}
+    with tempfile.TemporaryDirectory(prefix="synthcompose-eval-") as tmp:
+        base = a.out or Path(tmp)
+        if a.root is not None:
+            (base / "real").mkdir(parents=True, exist_ok=True)
+            results["real"] = evaluate(a.root.resolve(), base / "real" / "out", a.objects, a.seed, a.truth, "real")
+        if a.generated:
+            try:
+                from synthcompose.synthetic import make_sample
+            except ImportError:  # before the generator became a package
+                from synthcompose.sample import make_sample
+
+            gen = base / "generated"
+            make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=a.seed)
+            results["generated"] = evaluate(gen / "cityscapes", gen / "out", a.objects, a.seed, None, "generated")
+    if len(results) == 2:
+        r, g = results["real"], results["generated"]
+        print(f"\nreal vs generated: placed {r['placed_share']:.0%} vs {g['placed_share']:.0%}, pass "
+              f"{r['pass_share']:.0%} vs {g['pass_share']:.0%}, placement {r['placement_ms_per_object']:.0f} vs "
+              f"{g['placement_ms_per_object']:.0f} ms per object")
+    if a.json:
+        a.json.write_text(json.dumps(results, indent=2, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

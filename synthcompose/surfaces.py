@@ -1,0 +1,206 @@
+"""Stage 2b - surfaces of a frame without labels (the test split): road and sidewalk from the
+disparity and the photo.
+
+1. **The road's profile.** A camera without roll sees the ground of one image row at one
+   disparity: the ground profile d_g(v). It starts from the camera's own ground plane (z = 0 in
+   V) and is refined row by row by the strongest disparity near it (the road is the widest
+   surface of a street's lower image), then smoothed by a robust low-order fit, so slopes and
+   the pitch of the car are followed.
+2. **Heights.** A pixel of disparity d on row v lies h = H (1 - d_g(v) / d) above the ground
+   (H: the camera's height): a kerb's 10-15 cm is a 10 % step in disparity at any depth, well
+   above the matcher's noise. The height map is median-filtered over a few pixels.
+3. **Road**: level pixels (|h| within the noise band at their depth) whose colour is the road's
+   (a robust colour model of the level ground in front of the car) and that connect to it.
+   **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
+   road. Everything else is 0 (unlabelled).
+
+Deterministic: the same disparity and photo give the same labels (the checker recomputes them).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from .camera import Camera
+from .labels import label_id
+from .placement.noise import measure_sigma
+
+ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
+#: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
+SCALE = 0.5
+#: sidewalk: raised this much above the road, metres
+KERB_MIN, KERB_MAX = 0.05, 0.35
+#: level ground: within this height of the road profile (or the noise band), metres
+LEVEL_BAND = 0.05
+
+
+@dataclass(frozen=True)
+class Surfaces:
+    """Labels found for a frame without labels, and how."""
+
+    labels: np.ndarray  # (H, W) uint8: ROAD, SIDEWALK or 0
+    profile: np.ndarray  # (H,) ground disparity per row (NaN above the horizon)
+    sigma_d: float  # the matcher's noise measured on the level ground, pixels
+
+    def to_dict(self) -> dict:
+        return {"source": "none: road and sidewalk found from the disparity and the photo",
+                "road_share": round(float((self.labels == ROAD).mean()), 4),
+                "sidewalk_share": round(float((self.labels == SIDEWALK).mean()), 4),
+                "sigma_disparity_px": round(self.sigma_d, 4)}
+
+
+def plane_disparity(camera: Camera, rows: np.ndarray, width: int) -> np.ndarray:
+    """(len(rows), width) disparity of the camera's ground plane z = 0 (V) at each pixel (0
+    above the horizon)."""
+    u = np.arange(width, dtype=np.float64)
+    v = np.asarray(rows, np.float64)[:, None]
+    ray_o = np.stack(np.broadcast_arrays((u[None] - camera.u0) / camera.fx, (v - camera.v0) / camera.fy,
+                                         np.ones((len(rows), width))), -1)
+    m = camera.vehicle_from_optical
+    ray_z = ray_o @ m[2, :3]  # height change along the ray per unit optical depth
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(ray_z < -1e-6, -m[2, 3] / ray_z, np.inf)  # optical depth where the ray meets z = 0
+    return np.where(np.isfinite(z), camera.fx * camera.baseline / z, 0.0)
+
+
+def _profile(disp: np.ndarray, plane: np.ndarray) -> np.ndarray:
+    """(h,) ground disparity per row: per row, the median disparity of the pixels within 12 %
+    of the camera's plane, weighted to the central columns; then a robust quadratic in the
+    row of d_g / d_plane, so slopes and pitch are followed but single rows are not."""
+    h, w = disp.shape
+    centre = np.abs(np.arange(w) - w / 2) < 0.35 * w
+    rows, ratio, weight = [], [], []
+    for r in range(h):
+        p = plane[r, w // 2]
+        if p <= 1.0:
+            continue
+        d = disp[r, centre]
+        pr = plane[r, centre]
+        near = np.isfinite(d) & (np.abs(d / pr - 1) < 0.12)
+        if near.sum() < 0.1 * centre.sum():
+            continue
+        rows.append(r)
+        ratio.append(float(np.median(d[near] / pr[near])))
+        weight.append(float(near.sum()))
+    out = np.full(h, np.nan)
+    if len(rows) < 10:
+        ok = plane[:, w // 2] > 1.0
+        out[ok] = 1.0
+        return out
+    rows, ratio, weight = np.array(rows, float), np.array(ratio), np.sqrt(np.array(weight))
+    keep = np.ones(len(rows), bool)
+    coef = np.array([0.0, 0.0, 1.0])
+    for _ in range(4):
+        coef = np.polyfit(rows[keep] / h, ratio[keep], 2, w=weight[keep])
+        res = ratio - np.polyval(coef, rows / h)
+        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.005)
+    ok = plane[:, w // 2] > 1.0
+    out[ok] = np.polyval(coef, np.arange(h)[ok] / h)
+    out[rows.astype(int)[0]:][~ok[rows.astype(int)[0]:]] = np.nan
+    return out  # ratio to the plane's disparity, per row
+
+
+def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) -> Surfaces:
+    """Road and sidewalk labels of a frame from its Cityscapes disparity (uint16 PNG values)
+    and photo (H, W, 3 uint8 RGB)."""
+    H, W = disparity_png.shape
+    w, h = int(round(W * SCALE)), int(round(H * SCALE))
+    d_full = (disparity_png.astype(np.float32) - 1.0) / 256.0
+    d_full[disparity_png <= 1] = np.nan
+    # nearest-neighbour subsampling keeps holes holes and does not blend across borders
+    step = int(round(1 / SCALE))
+    dsub = d_full[::step, ::step][:h, :w]  # full-resolution disparity at the working pixels
+    disp = dsub * SCALE
+    sub = replace(camera, fx=camera.fx * SCALE, fy=camera.fy * SCALE, u0=camera.u0 * SCALE,
+                  v0=camera.v0 * SCALE, width=w, height=h)
+    plane = plane_disparity(sub, np.arange(h), w)
+    ratio = _profile(disp, plane)
+    ground_d = plane * ratio[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        height = camera.z * (1.0 - ground_d / disp)
+    height = np.where(np.isfinite(height) & (ground_d > 0), height, np.nan).astype(np.float32)
+    filled = np.where(np.isnan(height), 10.0, height).astype(np.float32)
+    smooth = cv2.medianBlur(filled, 5)
+    smooth[np.isnan(height)] = np.nan
+    # the matcher's noise on the level ground, and the band it allows at each depth
+    level0 = np.abs(smooth) < LEVEL_BAND
+    sigma = measure_sigma(dsub, level0, step=4, stride=2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = camera.fx * camera.baseline / dsub
+    band = np.maximum(LEVEL_BAND, 3.0 * camera.z * z * sigma / (camera.fx * camera.baseline))
+    level = np.abs(smooth) < band
+    # horizontal, not the face of a car or a wall: a vertical surface climbs by one pixel's
+    # size (z / fy) per row, a horizontal one not at all
+    k = 3
+    climb = np.full((h, w), np.inf, np.float32)
+    climb[k:-k] = np.abs(smooth[2 * k:] - smooth[:-2 * k]) / (2 * k)
+    flat = climb < 0.25 * z / sub.fy + 0.01
+    raised = (smooth >= np.maximum(KERB_MIN, band)) & (smooth <= KERB_MAX) & flat
+    small = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
+    lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
+    hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
+    seed = _seed(level, z)
+    # grass is green against the road: Cityscapes photos are greenish grey all over, so the
+    # test is relative to the saturation of the level ground in front of the car
+    s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
+    green = (hsv[..., 0] >= 30) & (hsv[..., 0] <= 90) & (hsv[..., 1] >= s_road + 25)
+    road = _road(level & ~green, seed & ~green, lab)
+    side = raised & ~green & ~road
+    side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    near_road = cv2.dilate(road.astype(np.uint8), np.ones((25, 25), np.uint8)).astype(bool)
+    n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
+    if n > 1:
+        touches = np.zeros(n, bool)
+        touches[np.unique(comp[near_road & side])] = True
+        sizes = np.bincount(comp.ravel(), minlength=n)
+        touches &= sizes >= 200
+        touches[0] = False
+        side = touches[comp]
+    small_labels = np.zeros((h, w), np.uint8)
+    small_labels[road] = ROAD
+    small_labels[side] = SIDEWALK
+    labels = cv2.resize(small_labels, (W, H), interpolation=cv2.INTER_NEAREST)
+    labels[disparity_png <= 1] = 0
+    return Surfaces(labels, ratio, float(sigma))
+
+
+def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Level ground 6-15 m ahead of the car, in the central columns: the road the car is on."""
+    h, w = level.shape
+    cols = np.arange(w)[None, :]
+    return level & (z >= 6) & (z <= 15) & (np.abs(cols - w / 2) < 0.15 * w)
+
+
+def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray) -> np.ndarray:
+    """The level pixels of the road's colour connected to the ground in front of the car."""
+    h, w = level.shape
+    if seed.sum() < 100:
+        return np.zeros((h, w), bool)
+    ref = lab[seed]
+    med = np.median(ref, axis=0)
+    spread = np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), [10.0, 4.0, 4.0])
+    dist = np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0)
+    road = level & (dist < 3.0)
+    road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    road = cv2.morphologyEx(road, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)).astype(bool) & level
+    n, comp = cv2.connectedComponents(road.astype(np.uint8), connectivity=4)
+    keep = np.zeros(n, bool)
+    keep[np.unique(comp[seed & road])] = True
+    keep[0] = False
+    return keep[comp]
+
+
+def frame_for(image_set, depth: np.ndarray | None = None):
+    """(placement Frame, Surfaces or None) of an image set: its own labels where it has them,
+    else the surfaces found here. The pipeline and the checker build frames the same way."""
+    from .geometry import disparity_to_depth, make_frame
+
+    cam = image_set.camera
+    if depth is None:
+        depth = disparity_to_depth(image_set.disparity, cam)
+    if image_set.labelled:
+        return make_frame(depth, image_set.label_ids, cam), None
+    found = find_surfaces(image_set.disparity, image_set.rgb, cam)
+    return make_frame(depth, found.labels, cam, labelled=False), found
