@@ -32,6 +32,8 @@ ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
 SCALE = 0.5
 #: sidewalk: raised this much above the road, metres
 KERB_MIN, KERB_MAX = 0.05, 0.35
+#: a walkable surface beside the road that is not raised: the sidewalk too when its colour is not the road's
+LEVEL_SIDEWALK = True
 #: level ground: within this height of the road profile (or the noise band), metres
 LEVEL_BAND = 0.05
 
@@ -121,6 +123,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     with np.errstate(invalid="ignore", divide="ignore"):
         height = camera.z * (1.0 - ground_d / disp)
     height = np.where(np.isfinite(height) & (ground_d > 0), height, np.nan).astype(np.float32)
+    height -= _tilt(height, dsub, sub, camera.fx * camera.baseline)
     filled = np.where(np.isnan(height), 10.0, height).astype(np.float32)
     smooth = cv2.medianBlur(filled, 5)
     smooth[np.isnan(height)] = np.nan
@@ -148,6 +151,8 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     green = (hsv[..., 0] >= 30) & (hsv[..., 0] <= 90) & (hsv[..., 1] >= s_road + 25)
     road = _road(level & ~green, seed & ~green, lab)
     side = raised & ~green & ~road
+    if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
+        side |= level & flat & ~green & ~road & ~_road_coloured(lab, seed)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((25, 25), np.uint8)).astype(bool)
     n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
@@ -166,6 +171,31 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     return Surfaces(labels, ratio, float(sigma))
 
 
+def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarray:
+    """(h, w) the road's remaining slope across and along the view: a robust plane h = a + b x +
+    c y (x forward, y left, metres) through the near-level pixels, so a cambered or sideways
+    sloping road stays level from kerb to kerb. ``d``: full-resolution disparity at the
+    working pixels of ``cam``; ``fb``: the full-resolution f B."""
+    v, u = np.mgrid[0:height.shape[0], 0:height.shape[1]]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(np.isfinite(height) & (d > 0), fb / d, np.nan)
+    lateral = -(u - cam.u0) * z / cam.fx
+    ok = np.isfinite(height) & (np.abs(height) < 0.25) & (z > 4) & (z < 30)
+    if ok.sum() < 500:
+        return np.zeros_like(height)
+    sel = np.flatnonzero(ok.ravel())[:: max(1, int(ok.sum() // 20000))]
+    A = np.column_stack([np.ones(len(sel)), z.ravel()[sel], lateral.ravel()[sel]])
+    hv = height.ravel()[sel]
+    keep = np.ones(len(sel), bool)
+    coef = np.zeros(3)
+    for _ in range(4):
+        coef, *_ = np.linalg.lstsq(A[keep], hv[keep], rcond=None)
+        res = hv - A @ coef
+        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.02)
+    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * np.nan_to_num(lateral)
+    return tilt.astype(np.float32)
+
+
 def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Level ground 6-15 m ahead of the car, in the central columns: the road the car is on."""
     h, w = level.shape
@@ -173,16 +203,22 @@ def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
     return level & (z >= 6) & (z <= 15) & (np.abs(cols - w / 2) < 0.15 * w)
 
 
+def _road_coloured(lab: np.ndarray, seed: np.ndarray, limit: float = 3.0) -> np.ndarray:
+    """Pixels within ``limit`` robust spreads of the colour of the road in front of the car."""
+    if seed.sum() < 100:
+        return np.zeros(lab.shape[:2], bool)
+    ref = lab[seed]
+    med = np.median(ref, axis=0)
+    spread = np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), [10.0, 4.0, 4.0])
+    return np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < limit
+
+
 def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray) -> np.ndarray:
     """The level pixels of the road's colour connected to the ground in front of the car."""
     h, w = level.shape
     if seed.sum() < 100:
         return np.zeros((h, w), bool)
-    ref = lab[seed]
-    med = np.median(ref, axis=0)
-    spread = np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), [10.0, 4.0, 4.0])
-    dist = np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0)
-    road = level & (dist < 3.0)
+    road = level & _road_coloured(lab, seed)
     road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     road = cv2.morphologyEx(road, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)).astype(bool) & level
     n, comp = cv2.connectedComponents(road.astype(np.uint8), connectivity=4)

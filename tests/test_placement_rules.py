@@ -11,7 +11,8 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.compose import Composer, SceneLayers
 from synthcompose.frequency import count_classes, object_weights
-from synthcompose.geometry import disparity_to_depth, ground_labels_from_depth, make_frame
+from synthcompose.geometry import disparity_to_depth, make_frame
+from synthcompose.surfaces import find_surfaces
 from synthcompose.labels import label_id
 from synthcompose.models import load_model
 from synthcompose.placement import PlacementRules, place_object, pose_matrix
@@ -106,8 +107,7 @@ def test_unlabelled_frame_finds_the_road_from_disparity():
     scene = random_scene(np.random.default_rng([11, 2]), 1024, 512)
     arrays = render_scene(scene)
     depth = disparity_to_depth(arrays["disparity"], scene.camera)
-    labels, plane = ground_labels_from_depth(depth, scene.camera, np.random.default_rng(0))
-    assert plane is not None and abs(plane[2]) < 0.05
+    labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
     road = labels == ROAD
     true_road = arrays["label_ids"] == ROAD
     assert (true_road[road]).mean() > 0.9  # what it calls road is road
