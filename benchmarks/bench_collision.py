@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from synthcompose.geometry import disparity_to_depth, make_frame  # noqa: E402
 from synthcompose.placement import box_corners, pose_matrix, prefilter, strict_inside  # noqa: E402
-from synthcompose.sample import random_scene, render_scene  # noqa: E402
+from synthcompose.synthetic import random_scene, render_scene  # noqa: E402
 
 
 def timed(fn, repeat):

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.fileio import encode_png, map_threads  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
-from synthcompose.sample import make_sample  # noqa: E402
+from synthcompose.synthetic import make_sample  # noqa: E402
 
 CAR = str(ROOT / "assets/models/openmaterial_car/vehicle_example.gltf")
 

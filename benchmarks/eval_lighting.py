@@ -17,7 +17,7 @@ import numpy as np
 
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, estimate_lighting
-from synthcompose.sample import SceneLight, random_scene, render_scene, render_scene_sunlit
+from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 
 BUILDING_IDS = (11, 12)  # building, wall
 #: bins of the ground's sunlit share: (name, low, high), low < share <= high

@@ -31,7 +31,7 @@ def _batch(args: argparse.Namespace) -> int:
 
 
 def _make_sample(args: argparse.Namespace) -> int:
-    from .sample import make_sample
+    from .synthetic import make_sample
 
     width, height = (int(v) for v in args.size.lower().split("x"))
     ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed)

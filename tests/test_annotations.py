@@ -22,7 +22,7 @@ from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 from .test_batch import write_manifest
 
@@ -316,7 +316,7 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
     from synthcompose.render import Lighting, RenderObject, Renderer
 
     from .test_placement_rules import pose_behind_a_pole
-    from synthcompose.sample import random_scene, render_scene
+    from synthcompose.synthetic import random_scene, render_scene
 
     scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
     arrays = render_scene(scene)

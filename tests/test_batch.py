@@ -11,7 +11,7 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 W, H = 640, 320

@@ -14,7 +14,7 @@ import pytest
 
 from synthcompose.batch import LOCK_NAME, OutputLock
 from synthcompose.cli import main
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 from .test_batch import OUT_KINDS, write_manifest
 

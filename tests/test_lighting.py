@@ -1,5 +1,5 @@
 """Light estimation (lighting.py) and camera match (compose.py) on generated scenes with a known
-light (sample.SceneLight: shading in linear light, cast shadows), the manifest's lighting modes,
+light (synthetic.SceneLight: shading in linear light, cast shadows), the manifest's lighting modes,
 the record and the compare-lighting command."""
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, LUM, estimate_lighting
 from synthcompose.manifest import parse_manifest
 from synthcompose.render import RenderPasses, Roi
-from synthcompose.sample import SceneLight, make_sample, random_scene, render_scene, render_scene_sunlit
+from synthcompose.synthetic import SceneLight, make_sample, random_scene, render_scene, render_scene_sunlit
 
 W, H = 640, 320
 SKY_TINT, SUN_TINT = (0.9, 0.97, 1.12), (1.08, 1.0, 0.9)  # bluish sky, warm sun
@@ -345,7 +345,7 @@ def test_manifest_lighting_modes(tmp_path):
 def sunny_dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("sunny")
     from synthcompose.dataset import ImageSetId
-    from synthcompose.sample import write_image_set
+    from synthcompose.synthetic import write_image_set
 
     light = SceneLight(sun_azimuth_deg=-150.0, sun_elevation_deg=45.0, sun_fraction=0.65)
     scene = random_scene(np.random.default_rng(1), W, H, light=light)

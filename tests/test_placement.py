@@ -8,7 +8,7 @@ import pytest
 
 from synthcompose.geometry import disparity_to_depth, make_frame
 from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, place_object, prefilter, strict_inside
-from synthcompose.sample import random_scene, render_scene
+from synthcompose.synthetic import random_scene, render_scene
 
 from .tolerances import GROUND_Z_M
 

@@ -17,7 +17,7 @@ from synthcompose.labels import label_id
 from synthcompose.models import load_model
 from synthcompose.placement import PlacementRules, place_object, pose_matrix
 from synthcompose.render import Lighting, RenderObject, Renderer
-from synthcompose.sample import make_sample, random_scene, render_scene
+from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .test_batch import H, W, write_manifest
 from .test_placement import SIZES

@@ -20,7 +20,7 @@ from synthcompose.manifest import load_manifest
 from synthcompose.placement import RULE_OF
 from synthcompose.placements import placement_path, read_saved
 from synthcompose.preview_state import PASSES, Overlay, PlacementRefused, PreviewSession
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 from .test_batch import write_manifest
 

@@ -9,7 +9,7 @@ import cv2
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 from .test_batch import write_manifest
 

@@ -25,7 +25,7 @@ from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
-from synthcompose.sample import make_sample
+from synthcompose.synthetic import make_sample
 
 from .test_batch import ASSETS, OUT_KINDS, write_manifest
 

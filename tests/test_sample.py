@@ -1,4 +1,4 @@
-"""Tests of the synthetic street generator (synthcompose.sample): files, geometry, labels."""
+"""Tests of the synthetic street generator (synthcompose.synthetic): files, geometry, labels."""
 from __future__ import annotations
 
 import dataclasses
@@ -12,7 +12,7 @@ import pytest
 from synthcompose.dataset import ImageSetId, find_image_sets, read_image_set
 from synthcompose.geometry import disparity_to_depth, point_cloud
 from synthcompose.labels import KNOWN_IDS, label_id
-from synthcompose.sample import StreetScene, make_sample, random_scene, render_scene
+from synthcompose.synthetic import StreetScene, make_sample, random_scene, render_scene
 
 W, H, SEED, COUNT = 512, 256, 7, 2
 KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera")

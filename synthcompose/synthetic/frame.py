@@ -1,0 +1,94 @@
+"""One synthetic frame's arrays: :func:`render_scene` ray-casts, shades, adds image noise and
+encodes the disparity.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ..geometry import depth_to_disparity
+from ..labels import label_id
+from .raycast import (PID_EGO, PID_FIRST_OBJECT, PID_KERB, PID_ROAD, PID_SIDEWALK, PID_SKY, Buffers,
+                      cast_box, cast_ground, cast_pole, ego_mask, street_rays)
+from .scene import StreetScene
+from .shading import shade
+
+#: fraction of valid pixels whose disparity is set to 0 (stereo holes)
+HOLE_FRACTION = 0.02
+
+_ROAD, _SIDEWALK, _SKY, _EGO = (label_id(n) for n in ("road", "sidewalk", "sky", "ego vehicle"))
+_POLE = label_id("pole")
+
+
+def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
+    """Ray-cast a scene. Returns (H, W from ``scene.camera``):
+
+    rgb          : (H, W, 3) uint8 sRGB, shaded with image noise
+    label_ids    : (H, W) uint8 Cityscapes label ids
+    instance_ids : (H, W) uint16, label_id*1000+k for cars/persons, plain label id elsewhere
+    depth        : (H, W) float32 exact optical-frame depth in metres; inf on sky and ego vehicle
+                   (the stereo holes of ``disparity`` keep their true depth here)
+    disparity    : (H, W) uint16 Cityscapes encoding of ``depth``, 0 on sky, ego and ~2 % holes
+    """
+    return _render(scene)
+
+
+def _render(scene: StreetScene, sunlit: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    cam = scene.camera
+    h, w = cam.height, cam.width
+    origin, dirs = street_rays(scene)
+    v_from_t = None if scene.street_is_vehicle_frame else scene.vehicle_from_street
+    buf = Buffers(origin=origin, d=dirs,
+                   depth=np.full((h, w), np.inf, np.float32), pid=np.full((h, w), PID_SKY, np.int16),
+                   face=np.zeros((h, w), np.int8))
+    cast_ground(scene, buf)
+    for i, box in enumerate(scene.boxes):
+        cast_box(box, PID_FIRST_OBJECT + i, buf, cam, v_from_t)
+    for j, pole in enumerate(scene.poles):
+        cast_pole(pole, PID_FIRST_OBJECT + len(scene.boxes) + j, buf, cam, v_from_t)
+    ego = ego_mask(h, w, scene.ego_rows)
+    buf.depth[ego] = np.inf
+    buf.pid[ego] = PID_EGO
+
+    # labels and instances through per-primitive lookup tables
+    n_obj = len(scene.boxes) + len(scene.poles)
+    lut_label = np.zeros(PID_FIRST_OBJECT + n_obj + 2, np.uint8)
+    lut_inst = np.zeros(len(lut_label), np.uint16)
+    base = {PID_EGO: _EGO, PID_SKY: _SKY, PID_ROAD: _ROAD, PID_SIDEWALK: _SIDEWALK, PID_KERB: _SIDEWALK}
+    for p, lid in base.items():
+        lut_label[p], lut_inst[p] = lid, lid  # negative ids index from the end
+    for i, box in enumerate(scene.boxes):
+        lut_label[PID_FIRST_OBJECT + i] = label_id(box.label)
+        lut_inst[PID_FIRST_OBJECT + i] = box.instance_id
+    for j in range(len(scene.poles)):
+        lut_label[PID_FIRST_OBJECT + len(scene.boxes) + j] = _POLE
+        lut_inst[PID_FIRST_OBJECT + len(scene.boxes) + j] = _POLE
+    label_ids = lut_label[buf.pid]
+    instance_ids = lut_inst[buf.pid]
+
+    rng = np.random.default_rng(scene.noise_seed)
+    rgb = shade(scene, buf, ego, rng, sunlit)
+    sigma = 0.45 * w / 2048 + 0.15
+    rgb = cv2.GaussianBlur(rgb, (0, 0), sigma)
+    rgb += rng.standard_normal((h, w, 3), dtype=np.float32) * np.float32(1.6)
+    rgb += rng.standard_normal((h, w, 1), dtype=np.float32) * np.float32(1.4)
+    rgb8 = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+
+    depth = buf.depth
+    disparity = depth_to_disparity(depth, cam)
+    disparity[rng.random((h, w), dtype=np.float32) < HOLE_FRACTION] = 0
+    return {"rgb": rgb8, "label_ids": label_ids, "instance_ids": instance_ids,
+            "depth": depth, "disparity": disparity}
+
+
+def render_scene_sunlit(scene: StreetScene) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """:func:`render_scene`'s arrays (the same bytes) and the ground truth of the sun: (H, W)
+    bool, True where the scene light's sun reaches the surface seen (facing it, no box or pole
+    in the way); all False without a sun (no :class:`SceneLight`, or ``sun_fraction`` 0)."""
+    cam = scene.camera
+    sunlit = np.zeros(cam.height * cam.width, bool)
+    arrays = _render(scene, sunlit)
+    if scene.light is None or scene.light.sun_fraction <= 0.0:
+        sunlit[:] = False
+    return arrays, sunlit.reshape(cam.height, cam.width)
+

@@ -1,0 +1,57 @@
+"""Writing synthetic frames in the Cityscapes layout: :func:`write_image_set`, :func:`make_sample`."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..dataset import ImageSetId
+from ..fileio import write_json, write_png
+from ..labels import KNOWN_IDS, colorize
+from .frame import render_scene
+from .layout import random_scene
+from .scene import StreetScene
+
+
+def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: dict[str, np.ndarray]) -> None:
+    """Write the six Cityscapes files of one rendered frame under ``root``.
+
+    leftImg8bit (RGB), gtFine_labelIds (8-bit), gtFine_instanceIds (16-bit), gtFine_color
+    (RGBA), disparity (16-bit) and camera JSON (``scene.camera.to_dict()``).
+    """
+    cam = scene.camera
+    shape = (cam.height, cam.width)
+    expected = {"rgb": (np.uint8, shape + (3,)), "label_ids": (np.uint8, shape),
+                "instance_ids": (np.uint16, shape), "disparity": (np.uint16, shape)}
+    for key, (dtype, shp) in expected.items():
+        arr = arrays[key]
+        if arr.dtype != dtype or arr.shape != shp:
+            raise ValueError(f"{key} must be {np.dtype(dtype).name} {shp}, found {arr.dtype} {arr.shape}")
+    if not KNOWN_IDS[arrays["label_ids"]].all():
+        raise ValueError("label_ids holds ids that Cityscapes does not define")
+    root = Path(root)
+    write_png(ident.path(root, "rgb"), arrays["rgb"])
+    write_png(ident.path(root, "labelIds"), arrays["label_ids"])
+    write_png(ident.path(root, "instanceIds"), arrays["instance_ids"])
+    write_png(ident.path(root, "color"), colorize(arrays["label_ids"]))
+    write_png(ident.path(root, "disparity"), arrays["disparity"])
+    write_json(ident.path(root, "camera"), cam.to_dict())
+
+
+def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int = 1024, seed: int = 0,
+                split: str = "train", city: str = "synthtown") -> list[ImageSetId]:
+    """Render and write ``count`` image sets ``<city>_000000_<frame:06d>`` under ``out_root``.
+
+    Frame i uses ``np.random.default_rng([seed, i])``: the same arguments give byte-identical
+    files, and frames do not depend on ``count``. Returns the ids written, in order.
+    """
+    if count < 0 or seed < 0:
+        raise ValueError("count and seed must be non-negative")
+    out_root = Path(out_root)
+    idents: list[ImageSetId] = []
+    for i in range(count):
+        scene = random_scene(np.random.default_rng([seed, i]), width, height)
+        ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
+        write_image_set(out_root, ident, scene, render_scene(scene))
+        idents.append(ident)
+    return idents
