@@ -117,10 +117,7 @@ def main(argv=None) -> int:
             (base / "real").mkdir(parents=True, exist_ok=True)
             results["real"] = evaluate(a.root.resolve(), base / "real" / "out", a.objects, a.seed, a.truth, "real")
         if a.generated:
-            try:
-                from synthcompose.synthetic import make_sample
-            except ImportError:  # before the generator became a package
-                from synthcompose.sample import make_sample
+            from synthcompose.synthetic import make_sample
 
             gen = base / "generated"
             make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=a.seed)

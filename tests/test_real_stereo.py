@@ -23,10 +23,7 @@ from synthcompose.surfaces import find_surfaces, frame_for
 from .test_placement import SIZES
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
-try:
-    from synthcompose.synthetic import random_scene, render_scene
-except ImportError:  # before the generator became a package
-    from synthcompose.sample import random_scene, render_scene
+from synthcompose.synthetic import random_scene, render_scene
 
 
 def sgm_like(disparity_png: np.ndarray, sigma_px: float, seed: int) -> np.ndarray:
