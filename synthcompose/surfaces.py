@@ -100,7 +100,6 @@ def _profile(disp: np.ndarray, plane: np.ndarray) -> np.ndarray:
         keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.005)
     ok = plane[:, w // 2] > 1.0
     out[ok] = np.polyval(coef, np.arange(h)[ok] / h)
-    out[rows.astype(int)[0]:][~ok[rows.astype(int)[0]:]] = np.nan
     return out  # ratio to the plane's disparity, per row
 
 
@@ -176,7 +175,7 @@ def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarr
     c y (x forward, y left, metres) through the near-level pixels, so a cambered or sideways
     sloping road stays level from kerb to kerb. ``d``: full-resolution disparity at the
     working pixels of ``cam``; ``fb``: the full-resolution f B."""
-    v, u = np.mgrid[0:height.shape[0], 0:height.shape[1]]
+    u = np.arange(height.shape[1])[None, :]
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.where(np.isfinite(height) & (d > 0), fb / d, np.nan)
     lateral = -(u - cam.u0) * z / cam.fx

@@ -106,7 +106,6 @@ def test_truncation_allowed_lets_objects_cross_the_border(holes_frame):
 def test_unlabelled_frame_finds_the_road_from_disparity():
     scene = random_scene(np.random.default_rng([11, 2]), 1024, 512)
     arrays = render_scene(scene)
-    depth = disparity_to_depth(arrays["disparity"], scene.camera)
     labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
     road = labels == ROAD
     true_road = arrays["label_ids"] == ROAD
