@@ -25,8 +25,8 @@ from .dataset import ImageSetId, read_image_set
 from .fileio import read_json, write_json
 from .geometry import make_frame
 from .labels import label_id
-from .placement import (MAX_PENETRATION, PlacementRules, footprint_support, frame_noise, local_ground, penetration,
-                        road_line, scene_clearance)
+from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, footprint_grid, footprint_support,
+                        frame_noise, local_ground, penetration, road_line, scene_clearance)
 from .surfaces import frame_for
 
 #: what the checks require (issue: placement a dataset can trust)
@@ -68,11 +68,6 @@ def _ident_from_record(record: dict) -> tuple[Path, ImageSetId]:
     return rgb.parents[3], ImageSetId(split, city, seq, frame)
 
 
-def _footprint_grid(l: float, w: float) -> np.ndarray:
-    gx, gy = np.meshgrid(np.linspace(-l / 2, l / 2, 21), np.linspace(-w / 2, w / 2, 11))
-    return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
-
-
 def check_record(record: dict, rules: PlacementRules = PlacementRules(),
                  truth_root: Path | None = None) -> list[ObjectCheck]:
     """The figures of every object of one record, measured on its input image set with the
@@ -97,7 +92,7 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
         m = np.array(obj["pose"]["vehicle"]["matrix"], float)
         l, w, h = obj["extents_m"]
         allowed = np.array([label_id(s) for s in obj["allowed_surfaces"]])
-        grid = _footprint_grid(l, w)
+        grid = footprint_grid(l, w)
 
         def share_on(f):
             sup = footprint_support(f, m, grid, allowed, noise)
@@ -111,7 +106,7 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
         fit = local_ground(frame, m[:3, 3], reach, allowed, noise)
         gap = float("nan")
         if fit is not None and np.isfinite(fit.rms):
-            corners = grid.reshape(11, 21, 3)[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
+            corners = grid.reshape(FOOTPRINT_SAMPLES[1], FOOTPRINT_SAMPLES[0], 3)[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
             gap = float(np.abs(corners[:, 2] - fit.height(corners[:, 0], corners[:, 1])).max())
         # penetration of scene points into the box (above the ground's noise band)
         box = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])

@@ -7,8 +7,8 @@ planes over a metric neighbourhood), ``road`` (kerb lines and the road's directi
 :func:`check_pose` for a pose given outright) and ``search`` (drawing candidates:
 :func:`place_object`).
 """
-from .boxes import (_visibility, box_corners, footprint_corners, footprints_overlap, penetration, pose_matrix,
-                    prefilter, rays_hit_box, strict_inside)
+from .boxes import (FOOTPRINT_SAMPLES, _visibility, box_corners, footprint_corners, footprint_grid, footprints_overlap,
+                    penetration, pose_matrix, prefilter, rays_hit_box, strict_inside)
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
 from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_clearance
@@ -19,10 +19,10 @@ from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, INLIER_BAND, KERB_CLEARANCE,
 from .search import place_object
 
 __all__ = [
-    "ALLOWED_SURFACES", "GROUND_LEVEL", "INLIER_BAND", "KERB_CLEARANCE", "MAX_PENETRATION", "ORIENTATION",
-    "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult", "PlacementRules",
-    "PoseTests", "Rejection", "RoadLine", "StereoNoise", "_visibility", "box_corners", "check_pose", "fit_ground",
-    "fit_road_line", "footprint_corners", "footprint_support", "footprints_overlap", "frame_noise", "ground_points",
-    "label_mask", "local_ground", "penetration", "place_object", "pose_matrix", "prefilter", "rays_hit_box", "road_line",
+    "ALLOWED_SURFACES", "FOOTPRINT_SAMPLES", "GROUND_LEVEL", "INLIER_BAND", "KERB_CLEARANCE", "MAX_PENETRATION",
+    "ORIENTATION", "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult",
+    "PlacementRules", "PoseTests", "Rejection", "RoadLine", "StereoNoise", "_visibility", "box_corners", "check_pose",
+    "fit_ground", "fit_road_line", "footprint_corners", "footprint_grid", "footprint_support", "footprints_overlap",
+    "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix", "prefilter", "rays_hit_box", "road_line",
     "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
 ]

@@ -61,6 +61,20 @@ def penetration(points: np.ndarray, m: np.ndarray, extents, clearance: float) ->
     return float(max(depth.max(initial=0.0), 0.0))
 
 
+#: footprint samples along the length and the width: the placement and the checker use the same grid
+FOOTPRINT_SAMPLES = (21, 11)
+
+
+def footprint_grid(l: float, w: float, margin: float = 0.0) -> np.ndarray:
+    """(21 * 11, 3) footprint samples in the object frame (z = 0), row-major along the width:
+    the footprint's l x w rectangle with ``margin`` metres more on every side. The placement
+    asks its support over the footprint and a margin, the checker over the footprint itself."""
+    nl, nw = FOOTPRINT_SAMPLES
+    gx, gy = np.meshgrid(np.linspace(-l / 2 - margin, l / 2 + margin, nl),
+                         np.linspace(-w / 2 - margin, w / 2 + margin, nw))
+    return np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+
+
 def footprint_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
     """(4, 2) ground-plan corners of the footprint, each side pushed out by ``grow`` metres."""
     l, w = extents[0] / 2 + grow, extents[1] / 2 + grow

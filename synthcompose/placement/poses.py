@@ -15,8 +15,8 @@ import numpy as np
 
 from ..geometry import Frame
 from ..labels import label_id
-from .boxes import (_hides_others, _visibility, box_corners, footprint_corners, footprints_overlap, penetration,
-                    strict_inside)
+from .boxes import (_hides_others, _visibility, box_corners, footprint_corners, footprint_grid, footprints_overlap,
+                    penetration, strict_inside)
 from .ground import GroundFit, local_ground
 from .noise import StereoNoise, stereo_noise
 from .road import surface_edges
@@ -78,7 +78,7 @@ class PoseTests:
     allowed: tuple[str, ...]
     allowed_ids: np.ndarray
     edges: np.ndarray  # (N, 2) kerb-line points of the allowed surface (ground plan)
-    grid: np.ndarray  # (45, 3) footprint samples in the object frame, footprint_margin beyond it
+    grid: np.ndarray  # (2N, 3) footprint samples (object frame): the checker's N, then N reaching footprint_margin beyond
     reach: float  # half-side of the square searched for ground points, metres
     noise: StereoNoise
 
@@ -86,9 +86,7 @@ class PoseTests:
     def of(cls, frame: Frame, extents, rules: PlacementRules, allowed: Sequence[str]) -> "PoseTests":
         allowed_ids = np.array([label_id(n) for n in allowed])
         l, w, _ = extents
-        fm = rules.footprint_margin
-        gx, gy = np.meshgrid(np.linspace(-l / 2 - fm, l / 2 + fm, 9), np.linspace(-w / 2 - fm, w / 2 + fm, 5))
-        grid = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+        grid = np.concatenate([footprint_grid(l, w), footprint_grid(l, w, rules.footprint_margin)])
         return cls(frame, extents, rules, tuple(allowed), allowed_ids, surface_edges(frame, allowed_ids), grid,
                    math.hypot(l, w) / 2 + 0.5, frame_noise(frame))
 
@@ -115,7 +113,9 @@ class PoseTests:
         seen = s["seen"]
         if seen.sum() < 0.3 * len(seen):
             return Rejection("footprint hidden", f"{seen.mean():.0%} of it seen, needs 30%")
-        share = s["allowed"][seen].mean()
+        # on the footprint itself (the checker's grid) and with the margin around it
+        inner = np.arange(len(seen)) < len(self.grid) // 2
+        share = min(s["allowed"][seen].mean(), s["allowed"][seen & inner].mean() if (seen & inner).any() else 0.0)
         if share < rules.min_footprint_allowed:
             return Rejection("footprint off the allowed surface",
                              f"{share:.0%} of the seen footprint on {'/'.join(self.allowed)}, "

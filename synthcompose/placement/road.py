@@ -31,6 +31,8 @@ class RoadLine:
 
 #: road lines are fitted once per cell of this size (metres) of the ground plan
 LINE_CELL = 2.5
+#: kerb points within this ground distance of a cell's centre make its line, metres
+LINE_RADIUS = 15.0
 #: at most this many kerb points go into one RANSAC (an even subsample)
 LINE_POINTS = 800
 
@@ -46,7 +48,10 @@ def road_line(frame: Frame, surface_ids: np.ndarray, point: np.ndarray) -> RoadL
     key = ("road_line", tuple(int(i) for i in surface_ids), cell)
     if key not in frame.cache:
         centre = (np.array(cell, float) + 0.5) * LINE_CELL
-        frame.cache[key] = fit_road_line(edges, centre, np.random.default_rng([cell[0] & 0xFFFF, cell[1] & 0xFFFF]))
+        rng = np.random.default_rng([cell[0] & 0xFFFF, cell[1] & 0xFFFF])
+        # far away a kerb is seen sparsely: look twice as far before falling back on the
+        # ego vehicle's heading (a turned street is not along it)
+        frame.cache[key] = fit_road_line(edges, centre, rng) or fit_road_line(edges, centre, rng, radius=2 * LINE_RADIUS)
     line = frame.cache[key]
     return None if line is None else RoadLine(line.angle, line.offset_of(point), line.inliers, line.ambiguous,
                                               line.centre)
@@ -115,7 +120,7 @@ def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, ban
 
 
 def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator | None = None,
-                  radius: float = 15.0, iterations: int = 80, band: float = 0.15) -> RoadLine | None:
+                  radius: float = LINE_RADIUS, iterations: int = 80, band: float = 0.15) -> RoadLine | None:
     """RANSAC kerb line through the edge points within ``radius`` of ``point`` (ground plan);
     flagged ambiguous where a second strong line crosses it (a junction)."""
     near = edges[np.hypot(edges[:, 0] - point[0], edges[:, 1] - point[1]) <= radius]

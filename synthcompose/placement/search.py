@@ -1,7 +1,10 @@
 """The search: candidates drawn among the allowed ground pixels, each run through the rules.
 
 For each object, candidates are drawn at random among pixels of an allowed surface (by label)
-with valid depth, weighted so distances spread over the allowed range. A candidate is
+with valid depth, weighted so distances spread over the allowed range, and only where the
+object can fit: along the pixel's row the allowed surface (or something standing on it) must
+reach at least the object's smallest half-size on both sides, inside the image (a necessary
+condition for any yaw: it only spares attempts on spots every rule would reject). A candidate is
 oriented (along the local road direction, towards the camera, or at random), then must pass,
 cheapest first (poses.py):
 
@@ -32,8 +35,8 @@ from ..labels import label_id
 from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests
 from .road import road_line
-from .rules import (ALLOWED_SURFACES, ORIENTATION, ORIENTATIONS, Placement, PlacementResult, PlacementRules,
-                    Rejection, label_mask)
+from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, ORIENTATION, ORIENTATIONS, Placement, PlacementResult,
+                    PlacementRules, Rejection, label_mask)
 
 UP = np.array([0.0, 0.0, 1.0])
 #: candidates are drawn among every STRIDE-th pixel of each row and column
@@ -54,7 +57,8 @@ class _Candidates:
     evenly). Only the ground distance of each pixel is worked out here (an image's road is
     most of a million pixels); a drawn pixel is back-projected when drawn.
 
-    rows, cols (N,) the pixels; cdf (N,) cumulative weights."""
+    rows, cols (N,) the pixels; z (N,) their depth; room (N,) pixels of allowed row around each
+    (the nearer side); cdf (N,) cumulative weights."""
 
     def __init__(self, frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> None:
         lo, hi = distance
@@ -71,11 +75,29 @@ class _Candidates:
         ground_y = x * m[1, 0] + y * m[1, 1] + z * m[1, 2] + (m[1, 3] - np.float32(cam.y))
         dist = np.hypot(ground_x, ground_y)
         keep = (dist >= lo) & (dist <= hi)
-        self.rows, self.cols = v[keep], u[keep]
-        self.cdf = np.cumsum(np.square(z[keep], dtype=np.float64))
+        self.rows, self.cols, self.z = v[keep], u[keep], z[keep]
+        # room along the row (pixels) to the nearest other ground surface, or the image border
+        left, right = _row_room(_blocking(frame, allowed_ids)[::STRIDE, ::STRIDE])
+        self.room = np.minimum(left, right)[v[keep] // STRIDE, u[keep] // STRIDE] * STRIDE
+        self.weight = np.square(z[keep], dtype=np.float64)
+        self.cdf = np.cumsum(self.weight)
 
     def __len__(self) -> int:
         return len(self.rows)
+
+    def fitting(self, half_size: float) -> "_Candidates":
+        """The candidates with room for ``half_size`` metres on both sides along their row
+        (90 % of it, for the foreshortening of a footprint turned across the view); the same
+        pool when none has."""
+        fits = self.room >= 0.9 * self.camera.fx * half_size / self.z
+        if not fits.any() or fits.all():
+            return self
+        sub = object.__new__(_Candidates)
+        sub.camera, sub.depth = self.camera, self.depth
+        sub.rows, sub.cols, sub.z, sub.room, sub.weight = (a[fits] for a in (self.rows, self.cols, self.z,
+                                                                            self.room, self.weight))
+        sub.cdf = np.cumsum(sub.weight)
+        return sub
 
     def draw(self, rng: np.random.Generator) -> int:
         return int(np.searchsorted(self.cdf, rng.random() * self.cdf[-1], side="right"))
@@ -83,6 +105,23 @@ class _Candidates:
     def point(self, idx: int) -> np.ndarray:
         """(3,) vehicle-frame point of candidate ``idx``."""
         return back_project(self.depth, self.camera, self.rows[idx:idx + 1], self.cols[idx:idx + 1])[1][0]
+
+
+def _blocking(frame: Frame, allowed_ids: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels a footprint on the allowed surface cannot cover: other ground-level
+    surfaces (a footprint sample hidden by something standing there is not held against it)."""
+    ground = [label_id(n) for n in GROUND_LEVEL] if frame.labelled else [label_id("road"), label_id("sidewalk")]
+    return (label_mask(ground) & ~label_mask(allowed_ids))[frame.label_ids]
+
+
+def _row_room(blocking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(left, right) distance in pixels from each pixel to the nearest blocking pixel (or the
+    image border) along its row."""
+    h, w = blocking.shape
+    cols = np.broadcast_to(np.arange(w), (h, w))
+    last = np.maximum.accumulate(np.where(blocking, cols, -1), axis=1)
+    first = np.minimum.accumulate(np.where(blocking, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    return cols - last, first - cols
 
 
 class _TracedCounter(Counter):
@@ -117,6 +156,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     if len(pool) == 0:
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
+    pool = pool.fitting(min(extents[0], extents[1]) / 2)
     tests = PoseTests.of(frame, extents, rules, allowed)
     jitter = math.radians(rules.yaw_jitter_deg)
     l, w, h = extents
