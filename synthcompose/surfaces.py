@@ -34,6 +34,8 @@ SCALE = 0.5
 KERB_MIN, KERB_MAX = 0.05, 0.35
 #: a walkable surface beside the road that is not raised: the sidewalk too when its colour is not the road's
 LEVEL_SIDEWALK = True
+#: a patch with road this close (working pixels) on both sides along its row lies in the road
+ENCLOSED_PX = 24
 #: level ground: within this height of the road profile (or the noise band), metres
 LEVEL_BAND = 0.05
 
@@ -149,10 +151,16 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
     green = (hsv[..., 0] >= 30) & (hsv[..., 0] <= 90) & (hsv[..., 1] >= s_road + 25)
     road = _road(level & ~green, seed & ~green, lab)
+    # level ground with road on both sides along its row is the road's (lane markings, patches)
+    road |= level & ~road & _between(road, ENCLOSED_PX)
     side = raised & ~green & ~road
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
         side |= level & flat & ~green & ~road & ~_road_coloured(lab, seed)
-    side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
+    # sides along the row (a traffic island's noise, a manhole) are left out
+    side &= ~_between(road, ENCLOSED_PX)
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((25, 25), np.uint8)).astype(bool)
     n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
     if n > 1:
@@ -172,7 +180,8 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
 
 def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarray:
     """(h, w) the road's remaining slope across and along the view: a robust plane h = a + b x +
-    c y (x forward, y left, metres) through the near-level pixels, so a cambered or sideways
+    c y + d y^2 (x forward, y left, metres: d is the crown of a cambered road, whose middle stands
+    above its gutters) through the near-level pixels, so a cambered or sideways
     sloping road stays level from kerb to kerb. ``d``: full-resolution disparity at the
     working pixels of ``cam``; ``fb``: the full-resolution f B."""
     u = np.arange(height.shape[1])[None, :]
@@ -183,16 +192,27 @@ def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarr
     if ok.sum() < 500:
         return np.zeros_like(height)
     sel = np.flatnonzero(ok.ravel())[:: max(1, int(ok.sum() // 20000))]
-    A = np.column_stack([np.ones(len(sel)), z.ravel()[sel], lateral.ravel()[sel]])
+    A = np.column_stack([np.ones(len(sel)), z.ravel()[sel], lateral.ravel()[sel], lateral.ravel()[sel] ** 2])
     hv = height.ravel()[sel]
     keep = np.ones(len(sel), bool)
-    coef = np.zeros(3)
+    coef = np.zeros(4)
     for _ in range(4):
         coef, *_ = np.linalg.lstsq(A[keep], hv[keep], rcond=None)
         res = hv - A @ coef
         keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.02)
-    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * np.nan_to_num(lateral)
+    lat = np.nan_to_num(lateral)
+    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * lat ** 2
     return tilt.astype(np.float32)
+
+
+def _between(mask: np.ndarray, reach: int) -> np.ndarray:
+    """(h, w) bool: pixels with a ``mask`` pixel within ``reach`` pixels to the left and to the
+    right along their row."""
+    h, w = mask.shape
+    cols = np.broadcast_to(np.arange(w), (h, w))
+    last = np.maximum.accumulate(np.where(mask, cols, -reach - 1), axis=1)  # nearest on the left
+    first = np.minimum.accumulate(np.where(mask, cols, w + reach)[:, ::-1], axis=1)[:, ::-1]  # on the right
+    return (cols - last <= reach) & (first - cols <= reach)
 
 
 def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:

@@ -145,3 +145,21 @@ def test_real_frames_without_labels_find_road_that_is_road():
         road = found.labels == ROAD
         assert (s.label_ids[road] == ROAD).mean() > 0.75
         assert road[s.label_ids == ROAD].mean() > 0.5
+
+
+@needs_real
+def test_real_frames_without_labels_find_sidewalk_on_walkable_ground():
+    """Found sidewalk lies beside the road on ground a person can stand on (Cityscapes' sidewalk,
+    parking, ground or terrain), not in the road's lane markings or on its crown."""
+    root = Path(REAL)
+    walkable = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
+    for ident in find_image_sets(root)[:8]:
+        s = read_image_set(root, ident)
+        if not s.labelled:
+            continue
+        side = find_surfaces(s.disparity, s.rgb, s.camera).labels == SIDEWALK
+        if side.sum() < 1000:
+            continue
+        truth = s.label_ids[side]
+        assert np.isin(truth, walkable).mean() > 0.5, ident.key
+        assert (truth == ROAD).mean() < 0.4, ident.key
