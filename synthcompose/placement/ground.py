@@ -32,6 +32,22 @@ class GroundFit:
         return a * x + b * y + c
 
 
+def _plane(p: np.ndarray) -> np.ndarray | None:
+    """Least-squares z = a x + b y + c through (N, 3) points, by the 3x3 normal equations about
+    the points' mean (well conditioned, and far cheaper than a general solver); None when the
+    points are collinear."""
+    mean = p.mean(axis=0)
+    q = p - mean
+    xx, xy, yy = (q[:, 0] * q[:, 0]).sum(), (q[:, 0] * q[:, 1]).sum(), (q[:, 1] * q[:, 1]).sum()
+    xz, yz = (q[:, 0] * q[:, 2]).sum(), (q[:, 1] * q[:, 2]).sum()
+    det = xx * yy - xy * xy
+    if det <= 1e-12 * max(xx * yy, 1e-12):
+        return None
+    a = (xz * yy - yz * xy) / det
+    b = (yz * xx - xz * xy) / det
+    return np.array([a, b, mean[2] - a * mean[0] - b * mean[1]])
+
+
 def fit_ground(points: np.ndarray, centre: np.ndarray | None = None, iterations: int = 4,
                band: float = 0.08, inlier_band: float = INLIER_BAND) -> tuple[np.ndarray, float, int] | None:
     """Robust plane z = a x + b y + c through (N, 3) points (metres, V).
@@ -55,8 +71,9 @@ def fit_ground(points: np.ndarray, centre: np.ndarray | None = None, iterations:
         p = points[keep]
         if len(p) < 3:
             return None
-        A = np.column_stack([p[:, 0], p[:, 1], np.ones(len(p))])
-        coef, *_ = np.linalg.lstsq(A, p[:, 2], rcond=None)
+        coef = _plane(p)
+        if coef is None:
+            return None
         res = points[:, 2] - (points[:, 0] * coef[0] + points[:, 1] * coef[1] + coef[2])
         mad = np.median(np.abs(res[keep]))
         keep = np.abs(res) < max(3.0 * 1.4826 * mad, floor)

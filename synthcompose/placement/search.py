@@ -109,9 +109,11 @@ class _Candidates:
 
 def _blocking(frame: Frame, allowed_ids: np.ndarray) -> np.ndarray:
     """(H, W) bool: pixels a footprint on the allowed surface cannot cover: other ground-level
-    surfaces (a footprint sample hidden by something standing there is not held against it)."""
-    ground = [label_id(n) for n in GROUND_LEVEL] if frame.labelled else [label_id("road"), label_id("sidewalk")]
-    return (label_mask(ground) & ~label_mask(allowed_ids))[frame.label_ids]
+    surfaces (a footprint sample hidden by something standing there is not held against it).
+    A frame without labels knows only its road and sidewalk: everything else blocks."""
+    if not frame.labelled:
+        return ~label_mask(allowed_ids)[frame.label_ids]
+    return (label_mask([label_id(n) for n in GROUND_LEVEL]) & ~label_mask(allowed_ids))[frame.label_ids]
 
 
 def _row_room(blocking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
