@@ -19,12 +19,14 @@ import tempfile
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from synthcompose.batch import STAGES, run_batch  # noqa: E402
 from synthcompose.check import LIMITS, check_output  # noqa: E402
-from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 
 
@@ -40,6 +42,26 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path)
     path = folder / "eval_manifest.json"
     path.write_text(json.dumps(m, indent=2))
     return path
+
+
+def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None:
+    """Pixels whose label or instance id differs between input and output outside the inserted
+    objects' visible masks, over the done sets of a labelled root (None for unlabelled roots)."""
+    total, seen = 0, False
+    for ident in find_image_sets(root):
+        if ident.key not in keys:
+            continue
+        src, res = read_image_set(root, ident), read_image_set(out, ident)
+        if not src.labelled:
+            continue
+        seen = True
+        record = json.loads(ident.path(out, "record").read_text())
+        union = np.zeros(src.label_ids.shape, bool)
+        for obj in record.get("objects", []):
+            union |= (res.instance_ids == obj["instance_id"]) & (src.instance_ids != obj["instance_id"])
+        diff = (res.label_ids != src.label_ids) | (res.instance_ids != src.instance_ids)
+        total += int((diff & ~union).sum())
+    return total if seen else None
 
 
 def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None, label: str) -> dict:
@@ -72,6 +94,7 @@ def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None,
         stages = " ".join(f"{o.timings.get(s, 0.0):.2f}" for s in STAGES)
         top = ", ".join(f"{k} x{v}" for k, v in why.most_common(3))
         print(f"{o.key:<44}{n_asked:>6}{n_placed:>7}{n_ok:>4}  {stages}  / {top}")
+    changed = labels_changed_outside(root, out, [o.key for o in summary.outcomes if o.status == "done"])
     print(f"{'object':<12}{'dist m':>7}{'foot':>6}{'truth':>6}{'gap m':>7}{'pen m':>7}{'occl':>6}{'yaw°':>6}  verdict")
     for c in checks:
         yaw = "-" if c.yaw_to_road_deg is None else f"{c.yaw_to_road_deg:.1f}"
@@ -88,12 +111,15 @@ def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None,
         "placement_ms_per_object": 1000 * per_object,
         "stage_mean_s": means, "rejections": dict(reasons.most_common(8)),
         "on_truth_ge_095": (sum(v >= LIMITS["footprint_on_allowed"] for v in on_truth), len(on_truth)),
+        "labels_changed_outside_objects_px": changed,
     }
     print(f"totals: {placed}/{asked} placed ({result['placed_share']:.0%}), {ok}/{placed} pass check-placement "
           f"--strict ({result['pass_share']:.0%}), placement {result['placement_ms_per_object']:.0f} ms per object; "
           f"mean stage s: " + ", ".join(f"{k} {v:.2f}" for k, v in means.items()))
     if on_truth:
         print(f"on the true labels: {result['on_truth_ge_095'][0]}/{len(on_truth)} footprints >= 0.95 on the allowed class")
+    if changed is not None:
+        print(f"label or instance pixels changed outside the inserted objects: {changed}")
     print("rejections (all attempts):", ", ".join(f"{k} x{v}" for k, v in reasons.most_common(6)))
     return result
 
