@@ -54,7 +54,7 @@ OUT_OF_VIEW_HOLES = 0.95
 #: hole rate within a matcher pixel of a disparity jump (the left-right check fails there)
 EDGE_HOLES = 0.07
 #: hole rate: speckle everywhere, plus where texture is weak (sky, bonnet, plain walls)
-SPECKLE = 0.035
+SPECKLE = 0.02
 WEAK_HOLES = 0.35
 #: the bonnet: share left valid (reflections matched)
 EGO_VALID = 0.15
@@ -174,7 +174,7 @@ def sgm_disparity(depth: np.ndarray, rgb: np.ndarray, label_ids: np.ndarray, cam
     holes |= occluded & (_field(rng, (h, w), 1.0, 1.0) > _threshold(OCCLUDED_HOLES))
     holes |= edges & (_field(rng, (h, w), 0, 0) > _threshold(EDGE_HOLES))
     holes |= outside & (blobs > _threshold(OUT_OF_VIEW_HOLES))
-    holes |= ego & (blobs < _threshold(1 - EGO_VALID))
+    holes |= ego & (blobs > _threshold(1 - EGO_VALID))
     top = int(round(BORDER_TOP * H / 1024 / b))
     side = int(round(BORDER_SIDE * W / 2048 / b))
     holes[:top] = True
