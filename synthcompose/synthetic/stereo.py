@@ -10,7 +10,7 @@ frames with ``benchmarks/stereo_stats.py``; the figures are in the README):
   a few tenths of a pixel, growing where the photo has little texture (its local gradient
   energy is low);
 * foreground fattening: a nearer object's disparity spreads a few pixels over the farther
-  background beside and above it;
+  background beside it (and half as far above and below it);
 * holes: occlusion shadows (left of nearer objects: background the right camera does not
   see), most of the left band whose points fall outside the right image, the sky (which
   otherwise takes small disparities propagated from the skyline), the bonnet, texture-less
@@ -113,7 +113,7 @@ def _sky_disparity(d: np.ndarray, sky: np.ndarray, rng: np.random.Generator) -> 
 
 def _fatten(d: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Background pixels within a random 0..FATTEN matcher pixels of a nearer object (sideways,
-    and half that upwards) take its disparity."""
+    and half that vertically) take its disparity."""
     reach = np.clip(np.rint(FATTEN_MEAN + 0.8 * _field(rng, d.shape, 2.0, 2.0)), 0, FATTEN)
     out = d.copy()
     for r in range(1, FATTEN + 1):
