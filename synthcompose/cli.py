@@ -34,7 +34,8 @@ def _make_sample(args: argparse.Namespace) -> int:
     from .synthetic import make_sample
 
     width, height = (int(v) for v in args.size.lower().split("x"))
-    ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed)
+    ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed,
+                      stereo=args.stereo)
     print(f"wrote {len(ids)} image sets to {args.out}")
     return 0
 
@@ -112,6 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--count", type=int, default=3)
     s.add_argument("--size", default="2048x1024", help="WIDTHxHEIGHT")
     s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--stereo", choices=("realistic", "exact"), default="realistic",
+                   help="disparity as semi-global matching measures it (default) or the exact one")
     s.set_defaults(func=_make_sample)
     cl = sub.add_parser("compare-lighting", help="side by side: fixed light | estimated light, input | output")
     cl.add_argument("manifest", help="manifest JSON (see README)")

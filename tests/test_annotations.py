@@ -363,7 +363,7 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
 
     boxes = bbox3d_document(cam, record["objects"])
     (entry,) = boxes["objects"]
-    assert entry["2d"]["modal"] != entry["2d"]["amodal"]
+    # (the pole hides a strip inside the box: the modal box may equal the amodal one)
     x, y, w, h = entry["2d"]["amodal"]
     m = entry["2d"]["modal"]
     assert x <= m[0] and y <= m[1] and m[0] + m[2] <= x + w and m[1] + m[3] <= y + h

@@ -58,7 +58,7 @@ def test_tolerances_follow_the_stereo_error():
 
 def noisy_scene(seed: int, sigma_px: float = 0.3, w: int = 1024, h: int = 512):
     scene = random_scene(np.random.default_rng([seed, 15]), w, h)
-    arrays = render_scene(scene)
+    arrays = render_scene(scene, stereo="exact")  # the noise of a known size is added here
     disparity = sgm_like(arrays["disparity"], sigma_px, seed)
     return scene, arrays, disparity
 

@@ -27,12 +27,13 @@ def scene_of(frame: int, seed: int = SEED, **kw) -> StreetScene:
 @pytest.fixture(scope="module")
 def sample_root(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[ImageSetId]]:
     root = tmp_path_factory.mktemp("sample")
-    return root, make_sample(root, count=COUNT, width=W, height=H, seed=SEED)
+    # exact disparity: these tests check the generator's geometry to the centimetre
+    return root, make_sample(root, count=COUNT, width=W, height=H, seed=SEED, stereo="exact")
 
 
 @pytest.fixture(scope="module")
 def rendered() -> list[tuple[StreetScene, dict[str, np.ndarray]]]:
-    return [(s, render_scene(s)) for s in (scene_of(i) for i in range(4))]
+    return [(s, render_scene(s, stereo="exact")) for s in (scene_of(i) for i in range(4))]
 
 
 def test_files_at_cityscapes_paths_and_readable(sample_root):
@@ -184,7 +185,8 @@ def _content_sha256(root: Path, idents: list[ImageSetId]) -> str:
 
 
 def test_default_output_unchanged_by_the_new_options(tmp_path):
-    idents = make_sample(tmp_path, count=2, width=256, height=128, seed=11)
+    # the exact-disparity mode is the generator of before: the same content
+    idents = make_sample(tmp_path, count=2, width=256, height=128, seed=11, stereo="exact")
     assert _content_sha256(tmp_path, idents) == DEFAULT_CONTENT_SHA256
     # None and 0 are the same flat street along x
     a = random_scene(np.random.default_rng([3, 1]), 256, 128)
@@ -197,7 +199,7 @@ def tilted() -> list[tuple[StreetScene, dict[str, np.ndarray]]]:
     """Frames of a street turned by 15 deg, 4 % uphill, 2.5 % camber, and a steeper variant."""
     scenes = [scene_of(i, **TILTED) for i in range(2)]
     scenes.append(scene_of(2, heading_deg=-22.0, slope=-0.06, camber=0.03))
-    return [(s, render_scene(s)) for s in scenes]
+    return [(s, render_scene(s, stereo="exact")) for s in scenes]  # back-projection to 2 cm
 
 
 def _off_steps(scene: StreetScene, x: np.ndarray, y: np.ndarray, margin: float) -> np.ndarray:

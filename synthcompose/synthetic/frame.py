@@ -12,15 +12,16 @@ from .raycast import (PID_EGO, PID_FIRST_OBJECT, PID_KERB, PID_ROAD, PID_SIDEWAL
                       cast_box, cast_ground, cast_pole, ego_mask, street_rays)
 from .scene import StreetScene
 from .shading import shade
+from .stereo import STEREO_MODES, sgm_disparity
 
-#: fraction of valid pixels whose disparity is set to 0 (stereo holes)
+#: fraction of valid pixels whose disparity is set to 0 (stereo holes, ``stereo="exact"``)
 HOLE_FRACTION = 0.02
 
 _ROAD, _SIDEWALK, _SKY, _EGO = (label_id(n) for n in ("road", "sidewalk", "sky", "ego vehicle"))
 _POLE = label_id("pole")
 
 
-def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
+def render_scene(scene: StreetScene, stereo: str = "realistic") -> dict[str, np.ndarray]:
     """Ray-cast a scene. Returns (H, W from ``scene.camera``):
 
     rgb          : (H, W, 3) uint8 sRGB, shaded with image noise
@@ -28,12 +29,18 @@ def render_scene(scene: StreetScene) -> dict[str, np.ndarray]:
     instance_ids : (H, W) uint16, label_id*1000+k for cars/persons, plain label id elsewhere
     depth        : (H, W) float32 exact optical-frame depth in metres; inf on sky and ego vehicle
                    (the stereo holes of ``disparity`` keep their true depth here)
-    disparity    : (H, W) uint16 Cityscapes encoding of ``depth``, 0 on sky, ego and ~2 % holes
+    disparity    : (H, W) uint16 Cityscapes disparity. ``stereo="realistic"`` (default): as
+                   semi-global matching measures it (noise, fattening, holes; see
+                   :mod:`.stereo`); ``"exact"``: the encoding of ``depth``, 0 on sky, ego
+                   and ~2 % random holes
+    The photo, labels and depth are the same bytes in both modes.
     """
-    return _render(scene)
+    return _render(scene, stereo=stereo)
 
 
-def _render(scene: StreetScene, sunlit: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = "realistic") -> dict[str, np.ndarray]:
+    if stereo not in STEREO_MODES:
+        raise ValueError(f"stereo must be one of {STEREO_MODES}, not {stereo!r}")
     cam = scene.camera
     h, w = cam.height, cam.width
     origin, dirs = street_rays(scene)
@@ -75,19 +82,22 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None) -> dict[str, n
     rgb8 = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
     depth = buf.depth
-    disparity = depth_to_disparity(depth, cam)
-    disparity[rng.random((h, w), dtype=np.float32) < HOLE_FRACTION] = 0
+    if stereo == "exact":
+        disparity = depth_to_disparity(depth, cam)
+        disparity[rng.random((h, w), dtype=np.float32) < HOLE_FRACTION] = 0
+    else:
+        disparity = sgm_disparity(depth, rgb8, label_ids, cam, scene.noise_seed)
     return {"rgb": rgb8, "label_ids": label_ids, "instance_ids": instance_ids,
             "depth": depth, "disparity": disparity}
 
 
-def render_scene_sunlit(scene: StreetScene) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def render_scene_sunlit(scene: StreetScene, stereo: str = "realistic") -> tuple[dict[str, np.ndarray], np.ndarray]:
     """:func:`render_scene`'s arrays (the same bytes) and the ground truth of the sun: (H, W)
     bool, True where the scene light's sun reaches the surface seen (facing it, no box or pole
     in the way); all False without a sun (no :class:`SceneLight`, or ``sun_fraction`` 0)."""
     cam = scene.camera
     sunlit = np.zeros(cam.height * cam.width, bool)
-    arrays = _render(scene, sunlit)
+    arrays = _render(scene, sunlit, stereo)
     if scene.light is None or scene.light.sun_fraction <= 0.0:
         sunlit[:] = False
     return arrays, sunlit.reshape(cam.height, cam.width)

@@ -1,0 +1,118 @@
+"""Generated disparity measures like real Cityscapes SGM output.
+
+The ranges are those measured on four real development frames (2048x1024) with
+``benchmarks/stereo_stats.py`` (README, "Generated stereo"), widened by a few points; the
+scenes here are 1024x512 (the matcher's grid of a 2048 frame), so pixel-sized figures apply
+as they are and the left band is the leftmost 50 columns.
+"""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from synthcompose.dataset import read_image_set
+from synthcompose.labels import label_id
+from synthcompose.synthetic import make_sample, random_scene, render_scene
+from synthcompose.synthetic.stereo_stats import stereo_stats
+
+W, H = 1024, 512
+SKY, EGO = label_id("sky"), label_id("ego vehicle")
+
+
+@pytest.fixture(scope="module")
+def frames():
+    out = []
+    for i in range(3):
+        scene = random_scene(np.random.default_rng([5, i]), W, H)
+        arrays = render_scene(scene)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            stats = stereo_stats(arrays["disparity"], scene.camera, arrays["label_ids"])
+        out.append((scene, arrays, stats))
+    return out
+
+
+@pytest.mark.parametrize("key, lo, hi", [
+    ("valid", 0.78, 0.90),             # real 81.7-87.0 %
+    ("left_band_valid", 0.30, 0.56),   # real 36.7-50.1 %
+    ("residual_med", 0.17, 0.34),      # real 0.20-0.29 px
+    ("residual_p90", 0.28, 0.70),      # real 0.32-0.64 px
+    ("normals_up", 0.40, 0.58),        # real 45.6-53.4 %
+    ("sigma_d", 0.24, 0.45),           # real 0.27-0.38 px
+])
+def test_figures_in_the_real_ranges(frames, key, lo, hi):
+    for _, _, stats in frames:
+        assert lo <= stats[key] <= hi, (key, stats[key])
+
+
+def test_exact_disparity_is_far_from_real(frames):
+    scene, _, _ = frames[0]
+    exact = render_scene(scene, stereo="exact")
+    stats = stereo_stats(exact["disparity"], scene.camera, exact["label_ids"])
+    assert stats["residual_med"] < 0.01 and stats["normals_up"] > 0.95 and stats["valid"] > 0.88
+
+
+def test_holes_where_real_ones_are(frames):
+    for scene, arrays, _ in frames:
+        d, labels = arrays["disparity"], arrays["label_ids"]
+        sky, ego = labels == SKY, labels == EGO
+        if sky.sum() > 500:
+            assert 0.1 < (d[sky] == 0).mean() < 0.6  # real: 23-37 % of the sky invalid
+        assert (d[ego] == 0).mean() > 0.7  # real bonnets: 80-88 % invalid
+        assert (d[:15] == 0).all() and (d[:, :5] == 0).all() and (d[:, -5:] == 0).all()  # border
+        # 2x2 blocks only at 2048 px: here every pixel is the matcher's own
+        assert not (d[:, 0::2] == d[:, 1::2]).all()
+
+
+def test_occlusion_shadow_left_of_a_near_object():
+    """A pole in front of a far wall: the background just left of it is mostly invalid (the
+    right camera does not see it), just right of it mostly valid, and near the pole's right
+    edge the background takes the pole's disparity (fattening)."""
+    base = random_scene(np.random.default_rng([5, 0]), W, H)
+    scene = dataclasses.replace(base, poles=(dataclasses.replace(base.poles[0], x=8.0, y=0.5, radius=0.15),)
+                                if base.poles else ())
+    if not scene.poles:
+        pytest.skip("no pole to move")
+    arrays = render_scene(scene)
+    d, labels, depth = arrays["disparity"], arrays["label_ids"], arrays["depth"]
+    pole = labels == label_id("pole")
+    rows = np.flatnonzero(pole.sum(axis=1) >= 6)
+    rows = rows[(rows > H * 0.25) & (rows < H * 0.45)]  # pole against the far background
+    assert len(rows) > 10
+    left_invalid, right_invalid, right_fat = [], [], []
+    for r in rows:
+        cols = np.flatnonzero(pole[r])
+        c0, c1 = cols.min(), cols.max()
+        d_pole = scene.camera.fx * scene.camera.baseline / np.median(depth[r, cols]) * 256 + 1
+        left_invalid.append((d[r, c0 - 6:c0 - 1] == 0).mean())
+        right = d[r, c1 + 1:c1 + 3].astype(float)
+        right_invalid.append((right == 0).mean())
+        right_fat.append(np.mean(np.abs(right - d_pole) < 0.3 * d_pole))
+    assert np.mean(left_invalid) > 0.5
+    assert np.mean(right_invalid) < 0.3
+    assert np.mean(right_fat) > 0.3
+
+
+def test_same_seed_same_bytes_and_exact_mode_unchanged(tmp_path):
+    scene = random_scene(np.random.default_rng([5, 7]), 512, 256)
+    a, b = render_scene(scene), render_scene(scene)
+    assert np.array_equal(a["disparity"], b["disparity"])
+    other = render_scene(dataclasses.replace(scene, noise_seed=scene.noise_seed + 1))
+    assert not np.array_equal(a["disparity"], other["disparity"])
+    exact = render_scene(scene, stereo="exact")
+    for key in ("rgb", "label_ids", "instance_ids", "depth"):  # only the disparity differs
+        assert np.array_equal(a[key], exact[key])
+    ok = exact["disparity"] > 0
+    fb = scene.camera.fx * scene.camera.baseline
+    expected = np.rint(fb / exact["depth"][ok].astype(np.float64) * 256) + 1
+    assert np.array_equal(exact["disparity"][ok], expected.astype(np.uint16))
+    with pytest.raises(ValueError):
+        render_scene(scene, stereo="sgm")
+    # make_sample writes the realistic disparity by default
+    (ident,) = make_sample(tmp_path, count=1, width=512, height=256, seed=3)
+    written = read_image_set(tmp_path, ident).disparity
+    again = render_scene(random_scene(np.random.default_rng([3, 0]), 512, 256))["disparity"]
+    assert np.array_equal(written, again)
