@@ -64,6 +64,34 @@ def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None
     return total if seen else None
 
 
+def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str, float]]]:
+    """Per image set of an unlabelled ``root`` whose labelled twin is under ``truth``: precision
+    and recall of the found road and sidewalk against gtFine, and the share of the found
+    sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain)."""
+    from synthcompose.dataset import ImageSetId
+    from synthcompose.labels import label_id
+    from synthcompose.surfaces import ROAD, SIDEWALK, find_surfaces
+
+    walkable = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
+    out = []
+    for ident in find_image_sets(root):
+        twin = next((ImageSetId(sp, ident.city, ident.seq, ident.frame) for sp in ("train", "val", "test")
+                     if ImageSetId(sp, ident.city, ident.seq, ident.frame).path(truth, "labelIds").exists()), None)
+        if twin is None:
+            continue
+        s, t = read_image_set(root, ident), read_image_set(truth, twin)
+        found = find_surfaces(s.disparity, s.rgb, s.camera).labels
+        fig = {}
+        for name, lid in (("road", ROAD), ("sidewalk", SIDEWALK)):
+            f, g = found == lid, t.label_ids == lid
+            fig[f"{name}_precision"] = float((f & g).sum() / max(f.sum(), 1))
+            fig[f"{name}_recall"] = float((f & g).sum() / max(g.sum(), 1))
+        side = found == SIDEWALK
+        fig["sidewalk_on_walkable"] = float(np.isin(t.label_ids[side], walkable).mean()) if side.any() else 0.0
+        out.append((ident.key, fig))
+    return out
+
+
 def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None, label: str) -> dict:
     manifest = load_manifest(write_manifest(root, out, objects, seed, out.parent))
     summary = run_batch(manifest, workers=1, progress=False, resume=False)
@@ -120,6 +148,12 @@ def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None,
         print(f"on the true labels: {result['on_truth_ge_095'][0]}/{len(on_truth)} footprints >= 0.95 on the allowed class")
     if changed is not None:
         print(f"label or instance pixels changed outside the inserted objects: {changed}")
+    if truth is not None:
+        print("surfaces found without labels, against the true labels (precision / recall):")
+        for key, f in surfaces_against_truth(root, truth):
+            print(f"  {key:<44} road {f['road_precision']:.2f} / {f['road_recall']:.2f}, sidewalk "
+                  f"{f['sidewalk_precision']:.2f} / {f['sidewalk_recall']:.2f} "
+                  f"({f['sidewalk_on_walkable']:.0%} of it on walkable ground)")
     print("rejections (all attempts):", ", ".join(f"{k} x{v}" for k, v in reasons.most_common(6)))
     return result
 

@@ -28,6 +28,27 @@ def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:
     return depth
 
 
+def occluder_depth(depth: np.ndarray) -> np.ndarray:
+    """(H, W) float32 depth for occlusion tests, with the matcher's holes (inf) filled
+    conservatively: each hole takes the farther of the nearest valid depths to its left and
+    right along its row. A hole inside a pole or a plain wall is bounded by it on both sides and
+    keeps it in front of what is inserted behind it; an occlusion shadow beside a near object
+    (background the right camera did not see) takes the background's depth; a hole with no
+    valid pixel on one side stays unknown (inf)."""
+    h, w = depth.shape
+    valid = np.isfinite(depth)
+    if valid.all():
+        return depth
+    cols = np.broadcast_to(np.arange(w), (h, w))
+    left = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    right = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(h)[:, None]
+    padded = np.concatenate([depth, np.full((h, 1), np.inf, depth.dtype)], axis=1)  # index -1 and w: inf
+    from_left = padded[rows, np.where(left < 0, w, left)]
+    from_right = padded[rows, right]
+    return np.where(valid, depth, np.maximum(from_left, from_right)).astype(np.float32)
+
+
 def depth_to_disparity(depth: np.ndarray, camera: Camera) -> np.ndarray:
     """(H, W) float depth in metres -> (H, W) uint16 Cityscapes disparity.
 

@@ -30,7 +30,7 @@ from .compose import CameraMatch, Composed, Composer, SceneLayers
 from .dataset import ImageSet, ImageSetId, read_image_set
 from .errors import InputError, SynthComposeError
 from .frequency import object_weights
-from .geometry import Frame, disparity_to_depth
+from .geometry import Frame, disparity_to_depth, occluder_depth
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .lighting import LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
@@ -399,7 +399,7 @@ class Pipeline:
                                           sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
         with _timed(timings, "compose"):
             scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
-                                depth, cam.baseline * cam.fx * 256.0)
+                                occluder_depth(depth), cam.baseline * cam.fx * 256.0)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
             composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed], match)
             self._capture("compose", passes=passes, composed=composed, scene=scene)  # preview hook

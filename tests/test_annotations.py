@@ -310,7 +310,7 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
 def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
     from synthcompose.annotations import amodal_boxes, annotate_objects, bbox3d_document, polygons_document
     from synthcompose.compose import Composer, SceneLayers
-    from synthcompose.geometry import disparity_to_depth
+    from synthcompose.geometry import disparity_to_depth, occluder_depth
     from synthcompose.labels import label_id
     from synthcompose.models import load_model
     from synthcompose.render import Lighting, RenderObject, Renderer
@@ -331,7 +331,7 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
     silhouette[passes.roi.slices] = passes.read("id") == 1
     car = label_id("car")
     scene_layers = SceneLayers(arrays["rgb"], arrays["label_ids"], arrays["instance_ids"].astype(np.int32),
-                               arrays["disparity"], disparity_to_depth(arrays["disparity"], cam),
+                               arrays["disparity"], occluder_depth(disparity_to_depth(arrays["disparity"], cam)),
                                cam.baseline * cam.fx * 256)
     out = composer.compose(passes, scene_layers, [car], [car * 1000 + 99])
     renderer.release(passes)

@@ -80,3 +80,16 @@ def test_camera_json_errors_name_the_problem(bad, message):
     with pytest.raises(InputError, match=message) as err:
         Camera.from_dict(data, 10, 10, "some/camera.json")
     assert "some/camera.json" in str(err.value)
+
+
+def test_holes_are_filled_for_occlusion_by_the_farther_neighbour():
+    """A hole inside a near pole stays the pole's (the pole hides what is inserted behind it);
+    an occlusion shadow between background and pole takes the background's depth; a hole open
+    to the image border stays unknown."""
+    from synthcompose.geometry import occluder_depth
+
+    inf = np.inf
+    row = np.array([inf, 30, 30, inf, inf, 5, inf, 5, 30, inf], np.float32)
+    out = occluder_depth(np.stack([row, row]))
+    np.testing.assert_array_equal(out[0], [inf, 30, 30, 30, 30, 5, 5, 5, 30, inf])
+    assert occluder_depth(np.full((2, 3), 4.0, np.float32)).tolist() == [[4.0] * 3] * 2

@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry import disparity_to_depth, make_frame
-from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, place_object, prefilter, strict_inside
+from synthcompose.placement import (ALLOWED_SURFACES, PlacementRules, frame_noise, place_object, prefilter,
+                                    strict_inside)
 from synthcompose.synthetic import random_scene, render_scene
 
-from .tolerances import GROUND_Z_M
+from .tolerances import ground_z_tolerance
 
 W, H = 1024, 512
 SIZES = {"car": (4.4, 1.85, 1.48), "person": (0.5, 0.6, 1.75), "traffic sign": (0.2, 0.8, 2.5)}
@@ -52,7 +53,9 @@ def test_placed_objects_stand_on_allowed_ground_and_hit_nothing(frame, cls):
         gx, gy = np.meshgrid(np.linspace(-0.5, 0.5, 21) * l, np.linspace(-0.5, 0.5, 11) * w)
         foot = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)]) @ m[:3, :3].T + m[:3, 3]
         assert np.isin(scene.surface_label(foot[:, 0], foot[:, 1]), ALLOWED_SURFACES[cls]).mean() >= 0.95
-        assert np.abs(foot[:, 2] - scene.ground_height(foot[:, 0], foot[:, 1])).max() <= GROUND_Z_M
+        depth = float(fr.to_optical(m[:3, 3][None])[0, 2])
+        assert np.abs(foot[:, 2] - scene.ground_height(foot[:, 0], foot[:, 1])).max() <= \
+            ground_z_tolerance(frame_noise(fr), depth)
         # nothing of the scene deeper than 5 cm inside the object's box
         gx, gy, gz = np.meshgrid(np.linspace(-0.5, 0.5, 9) * (l - 0.1), np.linspace(-0.5, 0.5, 5) * (w - 0.1),
                                  np.linspace(0.05, h - 0.05, 6))

@@ -19,6 +19,8 @@ from synthcompose.placement import PlacementRules, frame_noise, place_object, po
 from synthcompose.render import Lighting, RenderObject, Renderer
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
+from .tolerances import ground_z_tolerance
+
 from .test_batch import H, W, write_manifest
 from .test_placement import SIZES
 
@@ -81,10 +83,9 @@ def test_placement_with_many_disparity_holes(holes_frame):
         res = place_object(frame, cls, SIZES[cls], rng, PlacementRules())
         assert res.placement is not None, res.rejections
         x, y, z = res.placement.position
-        # the generated disparity is SGM-like: the height is known to the placement's own
-        # band, max(5 cm, 3 sigma_h) at that distance (a car 45 m away: about 25 cm)
-        dist = float(np.hypot(x - scene.camera.x, y - scene.camera.y))
-        assert abs(z - float(scene.ground_height(x, y))) <= max(0.05, 3 * noise.height_sigma(dist))
+        # the generated disparity is SGM-like: the height is known to the stereo error at that depth
+        depth = float(frame.to_optical(np.array([[x, y, z]]))[0, 2])
+        assert abs(z - float(scene.ground_height(x, y))) <= ground_z_tolerance(noise, depth)
 
 
 def test_visibility_rules_are_enforced(holes_frame):

@@ -2,8 +2,9 @@
 
 The ranges are those measured on four real development frames (2048x1024) with
 ``benchmarks/stereo_stats.py`` (README, "Generated stereo"), widened by a few points; the
-scenes here are 1024x512 (the matcher's grid of a 2048 frame), so pixel-sized figures apply
-as they are and the left band is the leftmost 50 columns.
+scenes here are 1024x512, a real frame scaled down: their noise is scaled with the width, and
+``stereo_stats`` measures them with windows and steps scaled and gives pixel figures in pixels
+of a 2048 px frame, so the ranges apply as they are.
 """
 from __future__ import annotations
 

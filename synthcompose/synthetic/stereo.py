@@ -31,7 +31,8 @@ from ..labels import label_id
 
 STEREO_MODES = ("realistic", "exact")
 
-#: matcher noise: base amplitude (px of the full image) and its growth where texture is weak
+#: matcher noise: base amplitude (px of a 2048 px wide image; scaled with the width) and its
+#: growth where texture is weak
 NOISE_PX = 0.38
 #: a frame's noise amplitude is NOISE_PX times a factor drawn from this range (real frames differ)
 FRAME_GAIN = (0.9, 1.2)
@@ -111,15 +112,15 @@ def _sky_disparity(d: np.ndarray, sky: np.ndarray, rng: np.random.Generator) -> 
     return np.where(sky, share * skyline[None, :], d).astype(np.float32)
 
 
-def _fatten(d: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _fatten(d: np.ndarray, rng: np.random.Generator, jump: float = FATTEN_JUMP) -> np.ndarray:
     """Background pixels within a random 0..FATTEN matcher pixels of a nearer object (sideways,
-    and half that vertically) take its disparity."""
+    and half that vertically) take its disparity (where it is ``jump`` px or more nearer)."""
     reach = np.clip(np.rint(FATTEN_MEAN + 0.8 * _field(rng, d.shape, 2.0, 2.0)), 0, FATTEN)
     out = d.copy()
     for r in range(1, FATTEN + 1):
         k = np.ones((2 * (r // 2) + 1, 2 * r + 1), np.uint8)
         grown = cv2.dilate(d, k)
-        take = (reach >= r) & (grown - d > FATTEN_JUMP + 0.05 * d)
+        take = (reach >= r) & (grown - d > jump + 0.05 * d)
         out[take] = np.maximum(out[take], grown[take])
     return out
 
@@ -155,16 +156,19 @@ def sgm_disparity(depth: np.ndarray, rgb: np.ndarray, label_ids: np.ndarray, cam
 
     d = _sky_disparity(d, sky, rng)
     d = np.where(ego, _edge_value(d, ego, from_top=False)[None, :], d)  # the road it reflects
-    d = _fatten(d, rng)
+    # the matcher's errors are fractions of its own pixel: a frame narrower than Cityscapes'
+    # 2048 px (a real frame scaled down) has its disparity, and their size, scaled with it
+    scale = np.float32(W / 2048)
+    d = _fatten(d, rng, FATTEN_JUMP * scale)
     occluded, outside = _unseen(d / b)
     jump = cv2.dilate(d, np.ones((3, 3), np.uint8)) - cv2.erode(d, np.ones((3, 3), np.uint8))
-    edges = jump > FATTEN_JUMP + 0.05 * d
+    edges = jump > FATTEN_JUMP * scale + 0.05 * d
 
     noise = (MIX[0] * _field(rng, (h, w), *STREAK) + MIX[1] * _field(rng, (h, w), PATCH, PATCH)
              + MIX[2] * _field(rng, (h, w), 0, 0))
     noise /= np.float32(math.sqrt(sum(m * m for m in MIX)))
     gain = rng.uniform(*FRAME_GAIN)
-    amp = np.float32(NOISE_PX * gain) * (1.0 + np.float32(WEAK_GAIN) * weak)
+    amp = np.float32(NOISE_PX * gain) * scale * (1.0 + np.float32(WEAK_GAIN) * weak)
     amp *= np.exp(np.float32(AMP_SPREAD) * _field(rng, (h, w), AMP_PATCHES, AMP_PATCHES)
                   - np.float32(AMP_SPREAD ** 2 / 2))
     d = np.maximum(d + amp * noise, 0.0)

@@ -7,6 +7,9 @@ disparity (uint16, 0 invalid) with the frame's labels and camera:
 valid            share of pixels with a disparity
 left_band_valid  share of valid pixels in the leftmost 100 columns at 2048 px wide (scaled
                  with the width; the right camera sees little of them)
+Pixel sizes are those of a 2048 px wide frame: a narrower one is measured as a real frame
+scaled down (windows and steps scaled, residuals and sigma_d in pixels of 2048 px).
+
 residual_med/p90 road disparity against a least-squares plane in 31x31 px windows (at least
                  60 % valid road pixels): median absolute residual per window, median and 90th
                  percentile over windows
@@ -135,15 +138,18 @@ def stereo_stats(disparity: np.ndarray, camera: Camera, label_ids: np.ndarray | 
     out = {"valid": float(valid.mean()), "left_band_valid": float(valid[:, :max(1, round(100 * W / 2048))].mean())}
     if label_ids is None:
         return out
+    # a narrower frame is a real one scaled down: windows and steps shrink with it, and its
+    # pixel figures are given in pixels of a 2048 px wide frame
+    k = 2048 / W
     road = (label_ids == _ROAD) & valid
-    res = plane_residuals(d, road)
+    res = plane_residuals(d, road, window=2 * int(round(WINDOW / k / 2)) + 1) * k
     out["residual_med"] = float(np.median(res)) if len(res) else float("nan")
     out["residual_p90"] = float(np.percentile(res, 90)) if len(res) else float("nan")
     depth = disparity_to_depth(disparity, camera)
     points = _points(depth, camera)
-    out["normals_up"] = normals_up_share(points, depth, road)
+    out["normals_up"] = normals_up_share(points, depth, road, step=max(1, int(round(2 / k))))
     from ..placement import frame_noise  # not at import time: placement is the heavier package
-    out["sigma_d"] = frame_noise(make_frame(depth, label_ids, camera)).sigma_d
+    out["sigma_d"] = frame_noise(make_frame(depth, label_ids, camera)).sigma_d * k
     zr = depth[road]
     hr = points[..., 2][road]
     for lo, hi in BANDS:
