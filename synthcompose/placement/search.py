@@ -77,7 +77,7 @@ class _Candidates:
         keep = (dist >= lo) & (dist <= hi)
         self.rows, self.cols, self.z = v[keep], u[keep], z[keep]
         # room along the row (pixels) to the nearest other ground surface, or the image border
-        left, right = _row_room(_blocking(frame, allowed_ids)[::STRIDE, ::STRIDE])
+        left, right = _row_room(_blocking(frame.label_ids[::STRIDE, ::STRIDE], frame.labelled, allowed_ids))
         self.room = np.minimum(left, right)[v[keep] // STRIDE, u[keep] // STRIDE] * STRIDE
         self.weight = np.square(z[keep], dtype=np.float64)
         self.cdf = np.cumsum(self.weight)
@@ -107,22 +107,23 @@ class _Candidates:
         return back_project(self.depth, self.camera, self.rows[idx:idx + 1], self.cols[idx:idx + 1])[1][0]
 
 
-def _blocking(frame: Frame, allowed_ids: np.ndarray) -> np.ndarray:
-    """(H, W) bool: pixels a footprint on the allowed surface cannot cover: other ground-level
-    surfaces (a footprint sample hidden by something standing there is not held against it).
-    A frame without labels knows only its road and sidewalk: everything else blocks."""
-    if not frame.labelled:
-        return ~label_mask(allowed_ids)[frame.label_ids]
-    return (label_mask([label_id(n) for n in GROUND_LEVEL]) & ~label_mask(allowed_ids))[frame.label_ids]
+def _blocking(label_ids: np.ndarray, labelled: bool, allowed_ids: np.ndarray) -> np.ndarray:
+    """Bool mask of the pixels of ``label_ids`` a footprint on the allowed surface cannot cover:
+    other ground-level surfaces (a footprint sample hidden by something standing there is not
+    held against it). A frame without labels knows only its road and sidewalk: everything else
+    blocks."""
+    if not labelled:
+        return ~label_mask(allowed_ids)[label_ids]
+    return (label_mask([label_id(n) for n in GROUND_LEVEL]) & ~label_mask(allowed_ids))[label_ids]
 
 
 def _row_room(blocking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(left, right) distance in pixels from each pixel to the nearest blocking pixel (or the
     image border) along its row."""
     h, w = blocking.shape
-    cols = np.broadcast_to(np.arange(w), (h, w))
-    last = np.maximum.accumulate(np.where(blocking, cols, -1), axis=1)
-    first = np.minimum.accumulate(np.where(blocking, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    cols = np.broadcast_to(np.arange(w, dtype=np.int32), (h, w))
+    last = np.maximum.accumulate(np.where(blocking, cols, np.int32(-1)), axis=1)
+    first = np.minimum.accumulate(np.where(blocking, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
     return cols - last, first - cols
 
 
