@@ -45,7 +45,7 @@ def main() -> None:
         frac = float(rng.uniform(0.5, 0.75))
         light = SceneLight(sun_azimuth_deg=az, sun_elevation_deg=el, sun_fraction=frac)
         scene = random_scene(np.random.default_rng(args.seed + i), w, h, light=light)
-        arrays, sunlit = render_scene_sunlit(scene, stereo="exact")
+        arrays, sunlit = render_scene_sunlit(scene, stereo="exact", photo="clean")
         ground = np.isin(arrays["label_ids"], GROUND_IDS)
         walls = np.isin(arrays["label_ids"], BUILDING_IDS)
         g_lit = float(sunlit[ground].mean()) if ground.any() else 0.0
@@ -72,7 +72,7 @@ def main() -> None:
     for i in range(n_over):
         scene = random_scene(np.random.default_rng(args.seed + 5000 + i), w, h,
                              light=SceneLight(sun_fraction=0.0))
-        arrays = render_scene(scene, stereo="exact")
+        arrays = render_scene(scene, stereo="exact", photo="clean")
         depth = disparity_to_depth(arrays["disparity"], scene.camera)
         overcast_sunny += estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera,
                                              args.work_width).sunny

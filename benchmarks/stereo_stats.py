@@ -1,6 +1,6 @@
-"""Disparity statistics of real Cityscapes frames side by side with generated ones.
+"""Disparity and photo statistics of real Cityscapes frames side by side with generated ones.
 
-    python benchmarks/stereo_stats.py ROOT [--generated 4] [--seed 0] [--stereo realistic|exact]
+    python benchmarks/stereo_stats.py ROOT [--generated 4] [--seed 0] [--stereo realistic|exact] [--photo realistic|clean]
     python benchmarks/stereo_stats.py --generated 4      # generated scenes only
 
 ROOT: a Cityscapes root (leftImg8bit/, disparity/, camera/, and gtFine/ for the road figures;
@@ -8,7 +8,7 @@ an unlabelled root gives the label-free figures only). --generated N renders N 2
 scenes in the same run, frame i from ``random_scene(default_rng([seed, i]))`` as
 ``make_sample`` draws them. Prints each frame's figures, then per figure the range (min..max)
 over the real and the generated frames. The figures are defined in
-``synthcompose/synthetic/stereo_stats.py``. Nothing is written (real frames may not be
+``synthcompose/synthetic/stereo_stats.py`` and ``photo_stats.py``. Nothing is written (real frames may not be
 redistributed).
 """
 from __future__ import annotations
@@ -26,6 +26,7 @@ sys.path.insert(0, str(REPO))
 
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.synthetic import random_scene, render_scene  # noqa: E402
+from synthcompose.synthetic.photo_stats import photo_stats  # noqa: E402
 from synthcompose.synthetic.stereo_stats import BANDS, stereo_stats  # noqa: E402
 
 ROWS = [("valid", "valid share", "{:.1%}"), ("left_band_valid", "valid share, left 100 columns", "{:.1%}"),
@@ -39,7 +40,13 @@ for lo, hi in BANDS:
 ROWS += [("fatten_right", "fattening right of objects, px", "{:.1f}"),
          ("fatten_left", "fattening left of objects, px", "{:.1f}"),
          ("invalid_left", "invalid in 8 px left of objects", "{:.0%}"),
-         ("invalid_right", "invalid in 8 px right of objects", "{:.0%}")]
+         ("invalid_right", "invalid in 8 px right of objects", "{:.0%}"),
+         ("v_median", "photo: brightness V, median (0-255)", "{:.0f}"), ("v_p5", "photo: brightness V, 5th percentile", "{:.0f}"),
+         ("v_p95", "photo: brightness V, 95th percentile", "{:.0f}"), ("s_median", "photo: saturation S, median", "{:.0f}"),
+         ("s_p90", "photo: saturation S, 90th percentile", "{:.0f}"), ("road_v", "photo: road brightness V, median", "{:.0f}"),
+         ("sky_v", "photo: sky brightness V, median", "{:.0f}"),
+         ("road_green", "photo: road green / mean(red, blue)", "{:.2f}"),
+         ("noise", "photo: noise (Immerkaer, 8-bit levels)", "{:.2f}")]
 
 
 def _range(values: list[float], fmt: str) -> str:
@@ -54,18 +61,19 @@ def real_stats(root: Path) -> list[dict]:
     out = []
     for ident in find_image_sets(root):
         s = read_image_set(root, ident)
-        st = stereo_stats(s.disparity, s.camera, s.label_ids if s.labelled else None)
+        labels = s.label_ids if s.labelled else None
+        st = stereo_stats(s.disparity, s.camera, labels) | photo_stats(s.rgb, labels)
         out.append(st)
         print(f"real {ident.name}: " + ", ".join(f"{k} {v:.3g}" for k, v in st.items()))
     return out
 
 
-def generated_stats(n: int, seed: int, stereo: str) -> list[dict]:
+def generated_stats(n: int, seed: int, stereo: str, photo: str) -> list[dict]:
     out = []
     for i in range(n):
         scene = random_scene(np.random.default_rng([seed, i]), 2048, 1024)
-        a = render_scene(scene, stereo=stereo)
-        st = stereo_stats(a["disparity"], scene.camera, a["label_ids"])
+        a = render_scene(scene, stereo=stereo, photo=photo)
+        st = stereo_stats(a["disparity"], scene.camera, a["label_ids"]) | photo_stats(a["rgb"], a["label_ids"])
         out.append(st)
         print(f"generated {i}: " + ", ".join(f"{k} {v:.3g}" for k, v in st.items()))
     return out
@@ -77,6 +85,7 @@ def main(argv=None) -> int:
     ap.add_argument("--generated", type=int, default=0, help="also N generated scenes, 2048x1024")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--stereo", choices=("realistic", "exact"), default="realistic")
+    ap.add_argument("--photo", choices=("realistic", "clean"), default="realistic")
     a = ap.parse_args(argv)
     if a.root is None and not a.generated:
         ap.error("give a ROOT, --generated N, or both")
@@ -85,7 +94,8 @@ def main(argv=None) -> int:
     if a.root is not None:
         columns[f"real ({a.root.name})"] = real_stats(a.root)
     if a.generated:
-        columns[f"generated ({a.stereo})"] = generated_stats(a.generated, a.seed, a.stereo)
+        columns[f"generated ({a.stereo} stereo, {a.photo} photo)"] = generated_stats(a.generated, a.seed, a.stereo,
+                                                                                   a.photo)
     names = list(columns)
     print()
     print("| figure | " + " | ".join(f"{n}, {len(columns[n])} frames" for n in names) + " |")

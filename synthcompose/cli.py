@@ -35,7 +35,7 @@ def _make_sample(args: argparse.Namespace) -> int:
 
     width, height = (int(v) for v in args.size.lower().split("x"))
     ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed,
-                      stereo=args.stereo)
+                      stereo=args.stereo, photo=args.photo)
     print(f"wrote {len(ids)} image sets to {args.out}")
     return 0
 
@@ -115,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--stereo", choices=("realistic", "exact"), default="realistic",
                    help="disparity as semi-global matching measures it (default) or the exact one")
+    s.add_argument("--photo", choices=("realistic", "clean"), default="realistic",
+                   help="the photo as Cityscapes' camera records it (default) or the clean shading")
     s.set_defaults(func=_make_sample)
     cl = sub.add_parser("compare-lighting", help="side by side: fixed light | estimated light, input | output")
     cl.add_argument("manifest", help="manifest JSON (see README)")

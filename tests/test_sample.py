@@ -28,12 +28,12 @@ def scene_of(frame: int, seed: int = SEED, **kw) -> StreetScene:
 def sample_root(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[ImageSetId]]:
     root = tmp_path_factory.mktemp("sample")
     # exact disparity: these tests check the generator's geometry to the centimetre
-    return root, make_sample(root, count=COUNT, width=W, height=H, seed=SEED, stereo="exact")
+    return root, make_sample(root, count=COUNT, width=W, height=H, seed=SEED, stereo="exact", photo="clean")
 
 
 @pytest.fixture(scope="module")
 def rendered() -> list[tuple[StreetScene, dict[str, np.ndarray]]]:
-    return [(s, render_scene(s, stereo="exact")) for s in (scene_of(i) for i in range(4))]
+    return [(s, render_scene(s, stereo="exact", photo="clean")) for s in (scene_of(i) for i in range(4))]
 
 
 def test_files_at_cityscapes_paths_and_readable(sample_root):
@@ -186,7 +186,7 @@ def _content_sha256(root: Path, idents: list[ImageSetId]) -> str:
 
 def test_default_output_unchanged_by_the_new_options(tmp_path):
     # the exact-disparity mode is the generator of before: the same content
-    idents = make_sample(tmp_path, count=2, width=256, height=128, seed=11, stereo="exact")
+    idents = make_sample(tmp_path, count=2, width=256, height=128, seed=11, stereo="exact", photo="clean")
     assert _content_sha256(tmp_path, idents) == DEFAULT_CONTENT_SHA256
     # None and 0 are the same flat street along x
     a = random_scene(np.random.default_rng([3, 1]), 256, 128)

@@ -117,3 +117,32 @@ def test_same_seed_same_bytes_and_exact_mode_unchanged(tmp_path):
     written = read_image_set(tmp_path, ident).disparity
     again = render_scene(random_scene(np.random.default_rng([3, 0]), 512, 256))["disparity"]
     assert np.array_equal(written, again)
+
+
+@pytest.mark.parametrize("key, lo, hi", [
+    ("v_median", 45, 110),     # real 49-102 (HSV V, 0-255)
+    ("v_p5", 18, 52),          # real 25-39
+    ("s_median", 20, 55),      # real 31-52
+    ("road_green", 1.05, 1.25),  # real 1.08-1.20: the greenish cast
+    ("sky_v", 175, 240),       # real 195-236
+    ("noise", 0.2, 1.0),       # real 0.38-0.47 at 2048 px; the clean shading has 2.1
+])
+def test_photo_figures_in_the_real_ranges(frames, key, lo, hi):
+    from synthcompose.synthetic.photo_stats import photo_stats
+
+    for _, arrays, _ in frames:
+        value = photo_stats(arrays["rgb"], arrays["label_ids"]).get(key)
+        assert value is None or lo <= value <= hi, (key, value)
+
+
+def test_clean_photo_keeps_the_shading(frames):
+    """photo="clean" is the shading as it was (brighter, grey road, more noise); the labels,
+    depth and exact disparity do not depend on the photo."""
+    from synthcompose.synthetic.photo_stats import photo_stats
+
+    scene, arrays, _ = frames[0]
+    clean = render_scene(scene, photo="clean", stereo="exact")
+    exact = render_scene(scene, stereo="exact")
+    assert np.array_equal(clean["disparity"], exact["disparity"])
+    assert np.array_equal(clean["label_ids"], arrays["label_ids"])
+    assert photo_stats(clean["rgb"])["noise"] > 1.5 > photo_stats(arrays["rgb"])["noise"]

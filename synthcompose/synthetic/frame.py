@@ -12,6 +12,7 @@ from .raycast import (PID_EGO, PID_FIRST_OBJECT, PID_KERB, PID_ROAD, PID_SIDEWAL
                       cast_box, cast_ground, cast_pole, ego_mask, street_rays)
 from .scene import StreetScene
 from .shading import shade
+from .camera import NOISE_SHARE, PHOTO_MODES, camera_look
 from .stereo import STEREO_MODES, sgm_disparity
 
 #: fraction of valid pixels whose disparity is set to 0 (stereo holes, ``stereo="exact"``)
@@ -21,10 +22,13 @@ _ROAD, _SIDEWALK, _SKY, _EGO = (label_id(n) for n in ("road", "sidewalk", "sky",
 _POLE = label_id("pole")
 
 
-def render_scene(scene: StreetScene, stereo: str = "realistic") -> dict[str, np.ndarray]:
+def render_scene(scene: StreetScene, stereo: str = "realistic", photo: str = "realistic") -> dict[str, np.ndarray]:
     """Ray-cast a scene. Returns (H, W from ``scene.camera``):
 
-    rgb          : (H, W, 3) uint8 sRGB, shaded with image noise
+    rgb          : (H, W, 3) uint8 sRGB, shaded with image noise. ``photo="realistic"``
+                   (default): as Cityscapes' camera records it (dark, a wide range between
+                   street and sky, greenish, little noise; see :mod:`.camera`); ``"clean"``:
+                   the shading as it is, with more noise
     label_ids    : (H, W) uint8 Cityscapes label ids
     instance_ids : (H, W) uint16, label_id*1000+k for cars/persons, plain label id elsewhere
     depth        : (H, W) float32 exact optical-frame depth in metres; inf on sky and ego vehicle
@@ -33,14 +37,18 @@ def render_scene(scene: StreetScene, stereo: str = "realistic") -> dict[str, np.
                    semi-global matching measures it (noise, fattening, holes; see
                    :mod:`.stereo`); ``"exact"``: the encoding of ``depth``, 0 on sky, ego
                    and ~2 % random holes
-    The photo, labels and depth are the same bytes in both modes.
+    The labels and depth are the same bytes in every mode; the photo does not depend on
+    ``stereo``, the exact disparity not on ``photo``.
     """
-    return _render(scene, stereo=stereo)
+    return _render(scene, stereo=stereo, photo=photo)
 
 
-def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = "realistic") -> dict[str, np.ndarray]:
+def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = "realistic",
+            photo: str = "realistic") -> dict[str, np.ndarray]:
     if stereo not in STEREO_MODES:
         raise ValueError(f"stereo must be one of {STEREO_MODES}, not {stereo!r}")
+    if photo not in PHOTO_MODES:
+        raise ValueError(f"photo must be one of {PHOTO_MODES}, not {photo!r}")
     cam = scene.camera
     h, w = cam.height, cam.width
     origin, dirs = street_rays(scene)
@@ -75,10 +83,13 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = 
 
     rng = np.random.default_rng(scene.noise_seed)
     rgb = shade(scene, buf, ego, rng, sunlit)
+    if photo == "realistic":
+        rgb = camera_look(rgb, scene.noise_seed)
     sigma = 0.45 * w / 2048 + 0.15
     rgb = cv2.GaussianBlur(rgb, (0, 0), sigma)
-    rgb += rng.standard_normal((h, w, 3), dtype=np.float32) * np.float32(1.6)
-    rgb += rng.standard_normal((h, w, 1), dtype=np.float32) * np.float32(1.4)
+    gain = np.float32(NOISE_SHARE if photo == "realistic" else 1.0)
+    rgb += rng.standard_normal((h, w, 3), dtype=np.float32) * (np.float32(1.6) * gain)
+    rgb += rng.standard_normal((h, w, 1), dtype=np.float32) * (np.float32(1.4) * gain)
     rgb8 = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
     depth = buf.depth
@@ -91,13 +102,14 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = 
             "depth": depth, "disparity": disparity}
 
 
-def render_scene_sunlit(scene: StreetScene, stereo: str = "realistic") -> tuple[dict[str, np.ndarray], np.ndarray]:
+def render_scene_sunlit(scene: StreetScene, stereo: str = "realistic",
+                        photo: str = "realistic") -> tuple[dict[str, np.ndarray], np.ndarray]:
     """:func:`render_scene`'s arrays (the same bytes) and the ground truth of the sun: (H, W)
     bool, True where the scene light's sun reaches the surface seen (facing it, no box or pole
     in the way); all False without a sun (no :class:`SceneLight`, or ``sun_fraction`` 0)."""
     cam = scene.camera
     sunlit = np.zeros(cam.height * cam.width, bool)
-    arrays = _render(scene, sunlit, stereo)
+    arrays = _render(scene, sunlit, stereo, photo)
     if scene.light is None or scene.light.sun_fraction <= 0.0:
         sunlit[:] = False
     return arrays, sunlit.reshape(cam.height, cam.width)

@@ -39,11 +39,13 @@ def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: d
 
 
 def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int = 1024, seed: int = 0,
-                split: str = "train", city: str = "synthtown", stereo: str = "realistic") -> list[ImageSetId]:
+                split: str = "train", city: str = "synthtown", stereo: str = "realistic",
+                photo: str = "realistic") -> list[ImageSetId]:
     """Render and write ``count`` image sets ``<city>_000000_<frame:06d>`` under ``out_root``.
 
     ``stereo``: ``"realistic"`` writes disparity as semi-global matching measures it,
-    ``"exact"`` the exact disparity with 2 % holes (see :func:`render_scene`).
+    ``"exact"`` the exact disparity with 2 % holes; ``photo``: ``"realistic"`` the photo as
+    Cityscapes' camera records it, ``"clean"`` the shading as it is (see :func:`render_scene`).
 
     Frame i uses ``np.random.default_rng([seed, i])``: the same arguments give byte-identical
     files, and frames do not depend on ``count``. Returns the ids written, in order.
@@ -55,6 +57,6 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
     for i in range(count):
         scene = random_scene(np.random.default_rng([seed, i]), width, height)
         ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
-        write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo))
+        write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo))
         idents.append(ident)
     return idents
