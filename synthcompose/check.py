@@ -106,7 +106,8 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
         fit = local_ground(frame, m[:3, 3], reach, allowed, noise)
         gap = float("nan")
         if fit is not None and np.isfinite(fit.rms):
-            corners = grid.reshape(FOOTPRINT_SAMPLES[1], FOOTPRINT_SAMPLES[0], 3)[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
+            rows = grid.reshape(FOOTPRINT_SAMPLES[1], FOOTPRINT_SAMPLES[0], 3)
+            corners = rows[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
             gap = float(np.abs(corners[:, 2] - fit.height(corners[:, 0], corners[:, 1])).max())
         # penetration of scene points into the box (above the ground's noise band)
         box = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])

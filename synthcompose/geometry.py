@@ -28,6 +28,17 @@ def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:
     return depth
 
 
+def nearest_in_row(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(left, right): for each pixel of an (H, W) bool ``mask``, the column of the nearest
+    ``mask`` pixel at or to its left along its row (-1 when none) and at or to its right (W
+    when none). The row scans that hole filling, room along a row and enclosure share."""
+    h, w = mask.shape
+    cols = np.broadcast_to(np.arange(w, dtype=np.int32), (h, w))
+    left = np.maximum.accumulate(np.where(mask, cols, np.int32(-1)), axis=1)
+    right = np.minimum.accumulate(np.where(mask, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
+    return left, right
+
+
 def occluder_depth(depth: np.ndarray) -> np.ndarray:
     """(H, W) float32 depth for occlusion tests, with the matcher's holes (inf) filled
     conservatively: each hole takes the farther of the nearest valid depths to its left and
@@ -39,14 +50,11 @@ def occluder_depth(depth: np.ndarray) -> np.ndarray:
     valid = np.isfinite(depth)
     if valid.all():
         return depth
-    cols = np.broadcast_to(np.arange(w), (h, w))
-    left = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
-    right = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    left, right = nearest_in_row(valid)
     rows = np.arange(h)[:, None]
-    padded = np.concatenate([depth, np.full((h, 1), np.inf, depth.dtype)], axis=1)  # index -1 and w: inf
-    from_left = padded[rows, np.where(left < 0, w, left)]
-    from_right = padded[rows, right]
-    return np.where(valid, depth, np.maximum(from_left, from_right)).astype(np.float32)
+    padded = np.concatenate([depth, np.full((h, 1), np.inf, depth.dtype)], axis=1)  # column w (and -1): inf
+    farther = np.maximum(padded[rows, np.where(left < 0, w, left)], padded[rows, right])
+    return np.where(valid, depth, farther).astype(np.float32)
 
 
 def depth_to_disparity(depth: np.ndarray, camera: Camera) -> np.ndarray:

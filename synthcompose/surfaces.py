@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from .camera import Camera
+from .geometry import nearest_in_row
 from .labels import label_id
 from .placement.noise import measure_sigma
 
@@ -208,11 +209,9 @@ def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarr
 def _between(mask: np.ndarray, reach: int) -> np.ndarray:
     """(h, w) bool: pixels with a ``mask`` pixel within ``reach`` pixels to the left and to the
     right along their row."""
-    h, w = mask.shape
-    cols = np.broadcast_to(np.arange(w), (h, w))
-    last = np.maximum.accumulate(np.where(mask, cols, -reach - 1), axis=1)  # nearest on the left
-    first = np.minimum.accumulate(np.where(mask, cols, w + reach)[:, ::-1], axis=1)[:, ::-1]  # on the right
-    return (cols - last <= reach) & (first - cols <= reach)
+    left, right = nearest_in_row(mask)  # -1 and W where there is none: too far from any pixel
+    cols = np.arange(mask.shape[1], dtype=np.int32)
+    return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)
 
 
 def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:

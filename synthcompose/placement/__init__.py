@@ -23,6 +23,6 @@ __all__ = [
     "ORIENTATION", "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult",
     "PlacementRules", "PoseTests", "Rejection", "RoadLine", "StereoNoise", "_visibility", "box_corners", "check_pose",
     "fit_ground", "fit_road_line", "footprint_corners", "footprint_grid", "footprint_support", "footprints_overlap",
-    "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix", "prefilter", "rays_hit_box", "road_line",
-    "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
+    "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix",
+    "prefilter", "rays_hit_box", "road_line", "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
 ]

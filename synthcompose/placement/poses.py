@@ -78,7 +78,8 @@ class PoseTests:
     allowed: tuple[str, ...]
     allowed_ids: np.ndarray
     edges: np.ndarray  # (N, 2) kerb-line points of the allowed surface (ground plan)
-    grid: np.ndarray  # (2N, 3) footprint samples (object frame): the checker's N, then N reaching footprint_margin beyond
+    grid: np.ndarray  # (2N, 3) footprint samples (object frame): the checker's N, then N reaching
+    # footprint_margin beyond
     reach: float  # half-side of the square searched for ground points, metres
     noise: StereoNoise
 

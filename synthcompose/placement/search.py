@@ -30,7 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..geometry import Frame, back_project, pinhole
+from ..geometry import Frame, back_project, nearest_in_row, pinhole
 from ..labels import label_id
 from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests
@@ -120,10 +120,8 @@ def _blocking(label_ids: np.ndarray, labelled: bool, allowed_ids: np.ndarray) ->
 def _row_room(blocking: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(left, right) distance in pixels from each pixel to the nearest blocking pixel (or the
     image border) along its row."""
-    h, w = blocking.shape
-    cols = np.broadcast_to(np.arange(w, dtype=np.int32), (h, w))
-    last = np.maximum.accumulate(np.where(blocking, cols, np.int32(-1)), axis=1)
-    first = np.minimum.accumulate(np.where(blocking, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
+    last, first = nearest_in_row(blocking)
+    cols = np.arange(blocking.shape[1], dtype=np.int32)
     return cols - last, first - cols
 
 
