@@ -68,15 +68,14 @@ def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str,
     """Per image set of an unlabelled ``root`` whose labelled twin is under ``truth``: precision
     and recall of the found road and sidewalk against gtFine, and the share of the found
     sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain)."""
-    from synthcompose.dataset import ImageSetId
+    from synthcompose.dataset import labelled_twin
     from synthcompose.labels import label_id
     from synthcompose.surfaces import ROAD, SIDEWALK, find_surfaces
 
     walkable = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
     out = []
     for ident in find_image_sets(root):
-        twin = next((ImageSetId(sp, ident.city, ident.seq, ident.frame) for sp in ("train", "val", "test")
-                     if ImageSetId(sp, ident.city, ident.seq, ident.frame).path(truth, "labelIds").exists()), None)
+        twin = labelled_twin(truth, ident)
         if twin is None:
             continue
         s, t = read_image_set(root, ident), read_image_set(truth, twin)

@@ -1,6 +1,7 @@
 """Disparity and photo statistics of real Cityscapes frames side by side with generated ones.
 
-    python benchmarks/stereo_stats.py ROOT [--generated 4] [--seed 0] [--stereo realistic|exact] [--photo realistic|clean]
+    python benchmarks/stereo_stats.py ROOT [--generated 4] [--seed 0] [--stereo realistic|exact]
+                                      [--photo realistic|clean]
     python benchmarks/stereo_stats.py --generated 4      # generated scenes only
 
 ROOT: a Cityscapes root (leftImg8bit/, disparity/, camera/, and gtFine/ for the road figures;
@@ -8,8 +9,8 @@ an unlabelled root gives the label-free figures only). --generated N renders N 2
 scenes in the same run, frame i from ``random_scene(default_rng([seed, i]))`` as
 ``make_sample`` draws them. Prints each frame's figures, then per figure the range (min..max)
 over the real and the generated frames. The figures are defined in
-``synthcompose/synthetic/stereo_stats.py`` and ``photo_stats.py``. Nothing is written (real frames may not be
-redistributed).
+``synthcompose/synthetic/stereo_stats.py`` and ``photo_stats.py``. Nothing is written (real
+frames may not be redistributed).
 """
 from __future__ import annotations
 
@@ -25,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.synthetic import random_scene, render_scene  # noqa: E402
+from synthcompose.synthetic import PHOTO_MODES, STEREO_MODES, random_scene, render_scene  # noqa: E402
 from synthcompose.synthetic.photo_stats import photo_stats  # noqa: E402
 from synthcompose.synthetic.stereo_stats import BANDS, stereo_stats  # noqa: E402
 
@@ -41,9 +42,12 @@ ROWS += [("fatten_right", "fattening right of objects, px", "{:.1f}"),
          ("fatten_left", "fattening left of objects, px", "{:.1f}"),
          ("invalid_left", "invalid in 8 px left of objects", "{:.0%}"),
          ("invalid_right", "invalid in 8 px right of objects", "{:.0%}"),
-         ("v_median", "photo: brightness V, median (0-255)", "{:.0f}"), ("v_p5", "photo: brightness V, 5th percentile", "{:.0f}"),
-         ("v_p95", "photo: brightness V, 95th percentile", "{:.0f}"), ("s_median", "photo: saturation S, median", "{:.0f}"),
-         ("s_p90", "photo: saturation S, 90th percentile", "{:.0f}"), ("road_v", "photo: road brightness V, median", "{:.0f}"),
+         ("v_median", "photo: brightness V, median (0-255)", "{:.0f}"),
+         ("v_p5", "photo: brightness V, 5th percentile", "{:.0f}"),
+         ("v_p95", "photo: brightness V, 95th percentile", "{:.0f}"),
+         ("s_median", "photo: saturation S, median", "{:.0f}"),
+         ("s_p90", "photo: saturation S, 90th percentile", "{:.0f}"),
+         ("road_v", "photo: road brightness V, median", "{:.0f}"),
          ("sky_v", "photo: sky brightness V, median", "{:.0f}"),
          ("road_green", "photo: road green / mean(red, blue)", "{:.2f}"),
          ("noise", "photo: noise (Immerkaer, 8-bit levels)", "{:.2f}")]
@@ -84,8 +88,8 @@ def main(argv=None) -> int:
     ap.add_argument("root", nargs="?", type=Path, help="Cityscapes root (real frames)")
     ap.add_argument("--generated", type=int, default=0, help="also N generated scenes, 2048x1024")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--stereo", choices=("realistic", "exact"), default="realistic")
-    ap.add_argument("--photo", choices=("realistic", "clean"), default="realistic")
+    ap.add_argument("--stereo", choices=STEREO_MODES, default="realistic")
+    ap.add_argument("--photo", choices=PHOTO_MODES, default="realistic")
     a = ap.parse_args(argv)
     if a.root is None and not a.generated:
         ap.error("give a ROOT, --generated N, or both")

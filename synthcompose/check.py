@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .dataset import ImageSetId, read_image_set
+from .dataset import ImageSetId, labelled_twin, read_image_set
 from .fileio import read_json, write_json
 from .geometry import make_frame
 from .labels import label_id
@@ -81,8 +81,7 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
     frame, _ = frame_for(image_set)
     truth = None
     if truth_root is not None and not image_set.labelled:
-        twin = next((ImageSetId(s, ident.city, ident.seq, ident.frame) for s in ("train", "val", "test")
-                     if ImageSetId(s, ident.city, ident.seq, ident.frame).path(truth_root, "labelIds").exists()), None)
+        twin = labelled_twin(truth_root, ident)
         if twin is not None:
             t = read_image_set(truth_root, twin)
             truth = make_frame(frame.depth, t.label_ids, cam)

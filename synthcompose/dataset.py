@@ -98,6 +98,17 @@ def find_image_sets(root: Path, splits=None, cities=None, frames=None) -> list[I
     return sorted(found)
 
 
+def labelled_twin(root: Path, ident: ImageSetId) -> ImageSetId | None:
+    """The image set of the same city, sequence and frame under ``root`` that has gtFine labels,
+    in any of the train, val and test splits (a labelled copy of an unlabelled set, as in the
+    development set), or None."""
+    for split in ("train", "val", "test"):
+        twin = ImageSetId(split, ident.city, ident.seq, ident.frame)
+        if twin.path(root, "labelIds").exists():
+            return twin
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class ImageSet:
     """One frame's data, checked for shape and type.

@@ -51,7 +51,8 @@ def road_line(frame: Frame, surface_ids: np.ndarray, point: np.ndarray) -> RoadL
         rng = np.random.default_rng([cell[0] & 0xFFFF, cell[1] & 0xFFFF])
         # far away a kerb is seen sparsely: look twice as far before falling back on the
         # ego vehicle's heading (a turned street is not along it)
-        frame.cache[key] = fit_road_line(edges, centre, rng) or fit_road_line(edges, centre, rng, radius=2 * LINE_RADIUS)
+        frame.cache[key] = (fit_road_line(edges, centre, rng)
+                            or fit_road_line(edges, centre, rng, radius=2 * LINE_RADIUS))
     line = frame.cache[key]
     return None if line is None else RoadLine(line.angle, line.offset_of(point), line.inliers, line.ambiguous,
                                               line.centre)

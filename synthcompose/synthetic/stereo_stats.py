@@ -7,9 +7,6 @@ disparity (uint16, 0 invalid) with the frame's labels and camera:
 valid            share of pixels with a disparity
 left_band_valid  share of valid pixels in the leftmost 100 columns at 2048 px wide (scaled
                  with the width; the right camera sees little of them)
-Pixel sizes are those of a 2048 px wide frame: a narrower one is measured as a real frame
-scaled down (windows and steps scaled, residuals and sigma_d in pixels of 2048 px).
-
 residual_med/p90 road disparity against a least-squares plane in 31x31 px windows (at least
                  60 % valid road pixels): median absolute residual per window, median and 90th
                  percentile over windows
@@ -19,10 +16,13 @@ sigma_d          :func:`synthcompose.placement.frame_noise` (the placement's own
 height_<band>    road height in the vehicle frame (median, MAD) at optical depth 5-10, 10-20,
                  20-40 m
 fatten_right/left  at row-wise edges of near objects ("things", poles, signs) against a
-                 background at least 4 px of disparity farther (at 2048 px wide): how many of the 8 background
-                 pixels next to the edge take the object's disparity (nearer to it than to the
-                 background's), mean over edges; on the left side of objects also the share
+                 background at least 4 px of disparity farther (at 2048 px wide): how many of
+                 the 8 background pixels next to the edge take the object's disparity (nearer
+                 to it than to the background's), mean over edges; on the left side of objects also the share
                  of those pixels that are invalid (occluded_left)
+
+Pixel sizes are those of a 2048 px wide frame: a narrower one is measured as a real frame
+scaled down (windows and steps scaled, residuals and sigma_d in pixels of 2048 px).
 """
 from __future__ import annotations
 
