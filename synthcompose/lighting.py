@@ -85,6 +85,7 @@ import numpy as np
 
 from .camera import Camera
 from .colour import srgb_to_linear
+from .placement.noise import measure_sigma
 from .render import Lighting
 
 #: Rec. 709 luminance weights of linear RGB
@@ -165,6 +166,9 @@ class LightEstimate:
                          real shadow (:meth:`sun_visibility`)
     ground_shadowed    : the sun does not reach the ground in view (it lights the walls above):
                          all of it is in shadow, whatever its brightness
+    evidence           : the cues the estimate rests on ("ground": lit and shadowed ground
+                         samples, "shading": surface pairs, "sky": the sky's colour); empty: none
+                         was found and the estimate is the fallback (an overcast grey sky)
     cues               : diagnostics of each cue (recorded)
     """
 
@@ -181,6 +185,7 @@ class LightEstimate:
     ground_levels: tuple[tuple[int, float], ...] = ()
     shadow_log_ratio: float = 0.0
     ground_shadowed: bool = False
+    evidence: tuple[str, ...] = ()
     cues: dict = field(default_factory=dict, compare=False, hash=False)
 
     @property
@@ -252,6 +257,7 @@ class LightEstimate:
             "confidence": _r(self.confidence, 3),
             "ground_levels": {str(k): _r(v, 5) for k, v in self.ground_levels},
             "shadow_log_ratio": _r(self.shadow_log_ratio, 3), "ground_shadowed": self.ground_shadowed,
+            "evidence": list(self.evidence), "fallback": not self.evidence,
             "cues": _r(self.cues),
         }
 
@@ -298,7 +304,8 @@ def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:
     return cv2.resize(a, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else a.copy()
 
 
-def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int) -> _Grid:
+def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int,
+          smooth: int = 1) -> _Grid:
     H, W = label_ids.shape
     f = max(1, int(round(W / work_width)))
     h, w = H // f, W // f
@@ -315,6 +322,8 @@ def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Cam
     pure = (lab_min == lab_max) & (2 * n_known >= f * f) & (dmax <= dmin * 1.04 + 0.02) & ~clipped
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.where(2 * n_known >= f * f, dsum / np.maximum(n_known, 1), np.nan).astype(np.float64)
+    if smooth > 1:
+        z = _smoothed_depth(z, lab_min, lab_min == lab_max, smooth)
     uc = (np.arange(w) * f + (f - 1) / 2.0)[None, :]
     vc = (np.arange(h) * f + (f - 1) / 2.0)[:, None]
     opt = np.stack([(uc - camera.u0) * z / camera.fx, (vc - camera.v0) * z / camera.fy, z], axis=-1)
@@ -326,6 +335,42 @@ def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Cam
         normals[rr, cc] = _fine_normals(rr * f + f // 2, cc * f + f // 2, label_ids, d, camera)
     lum = (lin @ LUM.astype(np.float32)).astype(np.float32)
     return _Grid(f, lin, lum, lab_min, pure, pts, normals)
+
+
+#: a frame whose disparity errs by more than this (pixels, :func:`noise.measure_sigma` on its
+#: ground) came from a real matcher: its cells are averaged over SMOOTH x SMOOTH before the
+#: normals are taken; exact disparity (1/256 px coding, measured at the floor) keeps its cells
+NOISY_SIGMA_D, SMOOTH = 0.15, 3
+
+
+def smoothing_for(depth: np.ndarray, label_ids: np.ndarray, camera: Camera) -> tuple[int, float]:
+    """(cells to average, the frame's measured disparity error in pixels)."""
+    fb = camera.fx * camera.baseline
+    with np.errstate(divide="ignore"):
+        disparity = np.where(np.isfinite(depth), fb / depth, np.nan).astype(np.float32)
+    sigma = measure_sigma(disparity, np.isin(label_ids, GROUND_IDS))
+    return (SMOOTH if sigma > NOISY_SIGMA_D else 1), sigma
+
+
+def _smoothed_depth(z: np.ndarray, label: np.ndarray, one_label: np.ndarray, cells: int) -> np.ndarray:
+    """Cell depths with their disparity (1 / z) averaged over the ``cells`` x ``cells`` cells
+    of the same label around each cell. Real stereo (semi-global matching) errs by a few tenths
+    of a pixel of disparity, about the same everywhere, so the depth error grows with z^2: at
+    20 m, +-0.2 px is +-17 cm along the ray, while neighbouring cells 3 px apart are 3 cm apart
+    on the ground - the normals from cell differences are noise. On a plane the disparity is an
+    affine function of the pixel, so its average over cells is the plane's own disparity at
+    their centroid: planes stay planar and the noise drops by about the window's width."""
+    known = np.isfinite(z) & one_label
+    disp = np.where(known, 1.0 / np.where(known, z, 1.0), 0.0).astype(np.float32)
+    out = z.copy()
+    k = (cells, cells)
+    for lab in np.unique(label[known]):
+        m = (known & (label == lab)).astype(np.float32)
+        num = cv2.boxFilter(disp * m, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        den = cv2.boxFilter(m, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        sel = m > 0
+        out[sel] = 1.0 / np.maximum(num[sel] / den[sel], 1e-6)
+    return out
 
 
 def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera) -> np.ndarray:
@@ -1128,13 +1173,15 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     geometry); depth (H, W) float metres, inf where unknown; ``camera`` the frame's camera.
     Deterministic: the same inputs give the same estimate.
     """
-    g = _grid(rgb, label_ids, depth, camera, work_width)
+    smooth, sigma_d = smoothing_for(depth, label_ids, camera)
+    g = _grid(rgb, label_ids, depth, camera, work_width, smooth)
     occ = _Occluders.build(g, label_ids, depth, camera)
     shadow = _shadow_cue(g, occ, camera)
     pairs = _pair_cue(g)
     mix = _mixture(shadow) if shadow is not None else None
     none, gm_none = _pair_none(pairs) if pairs is not None else (None, 0.3)
-    cues: dict = {"grid": [int(g.lum.shape[1]), int(g.lum.shape[0])],
+    cues: dict = {"grid": [int(g.lum.shape[1]), int(g.lum.shape[0])], "stereo_sigma_px": sigma_d,
+                  "depth_smoothing_cells": smooth,
                   "ground_samples": 0 if shadow is None else int(len(shadow.rel)),
                   "shading_pairs": 0 if pairs is None else int(len(pairs.y))}
     entropy = 0.05
@@ -1273,7 +1320,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         exposure, reference = _exposure(shadow, lit, lit_scale)
         cues["exposure_reference"] = reference
     sky = g.pure & (g.label == SKY_ID)
+    evidence = tuple(name for name, cue in (("ground", shadow), ("shading", pairs)) if cue is not None)
     if sky.sum() >= 50:
+        evidence += ("sky",)
         cues["sky_pixels_linear_rgb"] = [float(v) for v in g.lin[sky].mean(axis=0)]
         if shadow is None:  # no ground in view: the sky's colour
             sky_rgb = sun_rgb = ground_rgb = _unit(g.lin[sky].mean(axis=0))
@@ -1282,7 +1331,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         sky_rgb=tuple(float(v) for v in sky_rgb), sun_rgb=tuple(float(v) for v in sun_rgb),
         ground_rgb=tuple(float(v) for v in ground_rgb), ground_ratio=float(info["shading_ground_ratio"]),
         exposure=float(exposure), confidence=float(confidence), ground_levels=levels,
-        shadow_log_ratio=float(delta) if sunny else 0.0, ground_shadowed=shaded is not None, cues=cues)
+        shadow_log_ratio=float(delta) if sunny else 0.0, ground_shadowed=shaded is not None, evidence=evidence,
+        cues=cues)
 
 
 def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):

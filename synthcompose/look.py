@@ -1,0 +1,195 @@
+"""How an inserted object looks next to the photo: the measures the look is judged by, and the
+side-by-side view for judging it by eye.
+
+* :func:`tone` - median brightness and saturation (HSV, 0-255) of an object's pixels, and
+  :func:`real_tones` the same for every real object of a class in the frame;
+* :func:`shadow_blotchiness` - in a ring around an object, how far the ratio output / input
+  deviates from its smoothed copy, in units of the shadow's own depth: a soft shadow is smooth
+  (small), a shadow that follows the noise of the real depth pixel by pixel is blotchy;
+* :func:`contact_error` - at an object's lowest points, the real depth just below them against
+  the object's own depth there;
+* :func:`side_by_side` - per object, crops of the input, the output and the nearest real object
+  of the same class.
+
+All work on full-frame arrays as written (sRGB uint8, Cityscapes ids and disparity encoding).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .colour import srgb_to_linear
+
+LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
+#: real objects smaller than this (visible pixels) are too far or too hidden to compare
+MIN_REAL_PIXELS = 400
+#: the ratio's smoothing (pixels) and the shadow depth below which a pixel is not in the shadow
+SHADOW_SIGMA, SHADOW_MIN_DEPTH = 4.0, 0.03
+_LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+
+
+@dataclass(frozen=True)
+class Tone:
+    """Median brightness (V) and saturation (S) of an object's pixels, HSV 0-255."""
+
+    brightness: float
+    saturation: float
+    pixels: int
+
+
+def _inner(mask: np.ndarray) -> np.ndarray:
+    """The mask without its border pixel (antialiased edges mix in the background)."""
+    inner = cv2.erode(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    return inner if inner.sum() >= 20 else mask
+
+
+def tone(rgb: np.ndarray, mask: np.ndarray) -> Tone | None:
+    """The :class:`Tone` of ``rgb`` (H, W, 3 uint8 sRGB) over ``mask``; None when it is empty."""
+    m = _inner(mask)
+    if not m.any():
+        return None
+    hsv = cv2.cvtColor(rgb[m][None], cv2.COLOR_RGB2HSV_FULL)[0]
+    return Tone(float(np.median(hsv[:, 2])), float(np.median(hsv[:, 1])), int(m.sum()))
+
+
+def real_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int,
+               min_pixels: int = MIN_REAL_PIXELS) -> dict[int, Tone]:
+    """Instance id -> :class:`Tone` of every real object of ``class_id`` in the frame with at
+    least ``min_pixels`` visible pixels."""
+    out = {}
+    ids, counts = np.unique(instance_ids[(instance_ids // 1000) == class_id], return_counts=True)
+    for inst, n in zip(ids, counts):
+        if n >= min_pixels:
+            t = tone(rgb, instance_ids == inst)
+            if t is not None:
+                out[int(inst)] = t
+    return out
+
+
+def _ring(mask: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """Pixels around ``mask`` out to a quarter of its size (at least 12 px), 3 px clear of it
+    (its antialiased edge), on no inserted object (``others``)."""
+    ys, xs = np.nonzero(mask)
+    size = max(int(xs.max() - xs.min()), int(ys.max() - ys.min())) + 1
+    reach = max(12, size // 4)
+    outer = cv2.dilate(mask.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2))
+    inner = cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8))
+    return outer.astype(bool) & ~inner.astype(bool) & ~others
+
+
+def shadow_blotchiness(src: np.ndarray, out: np.ndarray, mask: np.ndarray, objects: np.ndarray) -> float | None:
+    """Mean over the ring around ``mask`` (pixels where the shadow's depth exceeds
+    :data:`SHADOW_MIN_DEPTH`) of ``|r - G(r)| / |1 - G(r)|``: r = output / input luminance
+    (linear), G its Gaussian-smoothed copy (sigma :data:`SHADOW_SIGMA`, over the ring only).
+    None where no pixel of the ring is in a shadow. ``objects``: every inserted object's pixels."""
+    if not mask.any():
+        return None
+    ring = _ring(mask, objects)
+    if ring.sum() < 50:
+        return None
+    y_src = cv2.LUT(src, _LUT) @ LUM
+    y_out = cv2.LUT(out, _LUT) @ LUM
+    r = np.where(ring, y_out / np.maximum(y_src, 1e-4), 0.0).astype(np.float32)
+    w = ring.astype(np.float32)
+    num = cv2.GaussianBlur(r * w, (0, 0), SHADOW_SIGMA)
+    den = cv2.GaussianBlur(w, (0, 0), SHADOW_SIGMA)
+    g = np.where(den > 1e-3, num / np.maximum(den, 1e-6), 1.0)
+    depth = np.abs(1.0 - g)
+    sel = ring & (depth > SHADOW_MIN_DEPTH)
+    if sel.sum() < 20:
+        return None
+    return float(np.mean(np.abs(r[sel] - g[sel]) / depth[sel]))
+
+
+def decode_depth(disparity: np.ndarray, focal_baseline: float) -> np.ndarray:
+    """Depth (metres, inf where invalid) from Cityscapes' disparity encoding (d * 256 + 1)."""
+    d = (disparity.astype(np.float32) - 1.0) / 256.0
+    with np.errstate(divide="ignore"):
+        return np.where(disparity > 0, focal_baseline / np.maximum(d, 1e-6), np.inf).astype(np.float32)
+
+
+def contact_error(src_depth: np.ndarray, out_depth: np.ndarray, mask: np.ndarray, ground: np.ndarray,
+                  below: int = 3, span: int = 4) -> float | None:
+    """Relative error ``median(real depth just below) / median(object depth) - 1`` at the
+    object's lowest points: the columns of ``mask`` whose lowest pixel lies within 2 % of the
+    object's height (at least 2 px) of its lowest row, the real depth ``below`` .. below+span
+    pixels under them where that is ``ground`` (else the column is skipped: something stands in
+    front of the foot). None without such columns."""
+    ys, xs = np.nonzero(mask)
+    if not len(ys):
+        return None
+    H = mask.shape[0]
+    bottom = np.full(mask.shape[1], -1)
+    np.maximum.at(bottom, xs, ys)
+    lowest, top = int(ys.max()), int(ys.min())
+    near = max(2, int(round(0.02 * (lowest - top + 1))))
+    cols = np.nonzero((bottom >= lowest - near) & (bottom >= 0))[0]
+    obj, real = [], []
+    for c in cols:
+        b = bottom[c]
+        rows = np.arange(b + below, min(b + below + span, H))
+        rows = rows[ground[rows, c] & np.isfinite(src_depth[rows, c])]
+        if len(rows) and np.isfinite(out_depth[b, c]):
+            obj.append(out_depth[b, c])
+            real.append(np.median(src_depth[rows, c]))
+    if len(obj) < 2:
+        return None
+    return float(np.median(real) / np.median(obj) - 1.0)
+
+
+# ------------------------------------------------------------------ the side-by-side view
+def _box(mask: np.ndarray, pad: float = 0.25) -> tuple[int, int, int, int]:
+    ys, xs = np.nonzero(mask)
+    x0, x1, y0, y1 = int(xs.min()), int(xs.max()) + 1, int(ys.min()), int(ys.max()) + 1
+    px, py = int(pad * (x1 - x0)) + 8, int(pad * (y1 - y0)) + 8
+    H, W = mask.shape
+    return max(x0 - px, 0), max(y0 - py, 0), min(x1 + px, W), min(y1 + py, H)
+
+
+def nearest_real(instance_ids: np.ndarray, class_id: int, mask: np.ndarray,
+                 min_pixels: int = MIN_REAL_PIXELS) -> np.ndarray | None:
+    """Mask of the real object of ``class_id`` whose centre lies nearest to ``mask``'s (among
+    those with ``min_pixels`` visible pixels), or None."""
+    ys, xs = np.nonzero(mask)
+    c = np.array([xs.mean(), ys.mean()])
+    best, best_d = None, np.inf
+    ids, counts = np.unique(instance_ids[(instance_ids // 1000) == class_id], return_counts=True)
+    for inst, n in zip(ids, counts):
+        if n < min_pixels:
+            continue
+        m = instance_ids == inst
+        yy, xx = np.nonzero(m)
+        d = float(np.hypot(xx.mean() - c[0], yy.mean() - c[1]))
+        if d < best_d:
+            best, best_d = m, d
+    return best
+
+
+def _panel(img: np.ndarray, box, height: int, caption: str) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    crop = img[y0:y1, x0:x1]
+    scale = height / crop.shape[0]
+    crop = cv2.resize(crop, (max(1, int(round(crop.shape[1] * scale))), height),
+                      interpolation=cv2.INTER_NEAREST if scale >= 1 else cv2.INTER_AREA)
+    bar = np.full((22, crop.shape[1], 3), 24, np.uint8)
+    cv2.putText(bar, caption, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (235, 235, 235), 1, cv2.LINE_AA)
+    return np.concatenate([bar, crop], axis=0)
+
+
+def side_by_side(src: np.ndarray, out: np.ndarray, mask: np.ndarray, instance_ids: np.ndarray | None,
+                 class_id: int, height: int = 256) -> np.ndarray:
+    """(h, w, 3) uint8: the input and the output cropped around ``mask`` (the inserted object),
+    and the nearest real object of the same class in the input (when ``instance_ids`` has one),
+    each ``height`` pixels high with a caption."""
+    box = _box(mask)
+    panels = [_panel(src, box, height, "input"), _panel(out, box, height, "output")]
+    real = None if instance_ids is None else nearest_real(instance_ids, class_id, mask)
+    if real is not None:
+        panels.append(_panel(src, _box(real), height, "nearest real object of its class"))
+    gap = np.full((panels[0].shape[0], 6, 3), 255, np.uint8)
+    row = [panels[0]]
+    for p in panels[1:]:
+        row += [gap, p]
+    return np.concatenate(row, axis=1)
