@@ -22,6 +22,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from pycocotools import mask as mask_util
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -74,7 +75,8 @@ def measure(root: Path, out: Path, truth: Path | None, views: Path | None, tag: 
         objects = np.zeros(src.label_ids.shape, bool)
         masks = []
         for obj in rec["objects"]:
-            m = (res.instance_ids == obj["instance_id"]) & (src.instance_ids != obj["instance_id"])
+            rle = obj["mask_rle"]  # the visible mask as annotated (a class without instances
+            m = mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)  # shares ids)
             masks.append((obj, m))
             objects |= m
         ground = np.isin((ref.label_ids if ref is not None else src.label_ids), GROUND)
@@ -131,6 +133,7 @@ def report(label: str, figs: dict) -> dict:
         "light_evidence": f"{sum(bool(lt.get('evidence')) for lt in seen.values())}/{len(seen)}",
     }
     print(f"cars inside the real cars' 10-90 % range (V and S): {inside}/{len(cars)}")
+    print("shadow blotchiness per object:", " ".join(f"{n}:{b:.2f}" for _, n, b in figs["shadows"] if b is not None))
     print(f"shadow blotchiness: {result['shadow_blotchiness']}")
     print(f"contact error |real/object - 1|: {result['contact_error']}")
     print(f"light estimate with evidence: {result['light_evidence']}")

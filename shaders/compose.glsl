@@ -37,8 +37,18 @@ uniform int u_blur_radius;         // its half width in pixels; 0: no blur
 uniform sampler2D u_layer_obj;     // layers() of every pixel (the LAYERS pass), when blurring
 uniform sampler2D u_layer_bg;
 
-bool in_front(float obj_depth, float scene_depth, bool label_front) {
-    return !label_front && obj_depth < scene_depth + u_tol_abs + u_tol_rel * obj_depth;
+uniform usampler2D u_ground;       // 1 where the real scene is ground the objects stand on
+uniform float u_ground_band;       // K sigma_d / (f B): the real ground's depth error is this * z^2
+uniform float u_ground_rel;        // and at least this share of the depth
+
+// In front of the real scene at a pixel. Over real ground, whose stereo depth errs by
+// sigma_z = z^2 sigma_d / (f B) (with heavier tails: streaks, mismatches), the band widens to
+// K sigma_z, and at least u_ground_rel of the depth: the ground an object stands on and its
+// shadow falls on cannot hide them, however noisy its depth (else the shadow and the tyres'
+// feet come out speckled where the noise brings the ground nearer).
+bool in_front(float obj_depth, float scene_depth, bool label_front, bool ground) {
+    float band = ground ? max(u_ground_band * obj_depth, u_ground_rel) * obj_depth : 0.0;
+    return !label_front && obj_depth < scene_depth + max(u_tol_abs + u_tol_rel * obj_depth, band);
 }
 
 bool label_in_front(uint label) {
@@ -51,7 +61,7 @@ struct Pixel {
     vec3 R, irpv, ir;
     float a, sd;
     uint label;
-    bool front, obj_vis, plane_vis;
+    bool front, ground, obj_vis, plane_vis;
 };
 
 Pixel fetch(ivec2 q) {
@@ -64,8 +74,9 @@ Pixel fetch(ivec2 q) {
     x.sd = texelFetch(u_scene_depth, q, 0).r;
     x.label = texelFetch(u_labels, q, 0).r;
     x.front = label_in_front(x.label);
-    x.obj_vis = x.a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(x.a, 1e-6), x.sd, x.front);
-    x.plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, x.sd, x.front);
+    x.ground = texelFetch(u_ground, q, 0).r != 0u;
+    x.obj_vis = x.a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(x.a, 1e-6), x.sd, x.front, x.ground);
+    x.plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, x.sd, x.front, x.ground);
     return x;
 }
 
@@ -168,7 +179,7 @@ void main() {
     out_visible = 0u;
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
-        if (in_front(od, x.sd, x.front)) {
+        if (in_front(od, x.sd, x.front, x.ground)) {
             out_label = u_class[id];
             out_instance = u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));

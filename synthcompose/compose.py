@@ -31,6 +31,10 @@ FRONT_LABELS = (1, 2, 3)
 TOL_ABS = 0.05  # metres
 TOL_REL = 0.005
 MAX_OBJECTS = 15
+#: over real ground (SceneLayers.ground) the band is K sigma_z of its stereo, and at least this
+#: share of the depth: the ground cannot hide what stands on it (a crest that would is rare
+#: within the few metres an object and its shadow cover)
+GROUND_TOL_REL = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,6 +59,8 @@ class SceneLayers:
     disparity: np.ndarray  # (H, W) uint16
     depth: np.ndarray  # (H, W) float32 metres, inf where unknown
     disparity_scale: float  # baseline * fx * 256
+    ground: np.ndarray | None = None  # (H, W) bool: real ground (objects stand, shadows fall on it)
+    ground_band: float = 0.0  # K sigma_d / (f B): over ground, the in-front band is this * z^2
 
 
 # ---------------------------------------------------------------- camera match
@@ -198,6 +204,8 @@ class Composer:
             "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
             "u_instances": gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4"),
             "u_disparity": gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4"),
+            "u_ground": gl.texture(size, 1, np.zeros((roi.height, roi.width), np.uint32) if scene.ground is None
+                                   else scene.ground[rows, cols].astype(np.uint32), dtype="u4"),
         }
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
@@ -220,6 +228,9 @@ class Composer:
             for prog in (self.prog, self.layers_prog):
                 if name in prog:
                     prog[name].value = unit
+        for prog in (self.prog, self.layers_prog):
+            prog["u_ground_band"].value = float(scene.ground_band)
+            prog["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
         layers = []
         if match.blur_radius:  # each pixel's layers once, for the blur's taps to read
             layers = [gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")]

@@ -69,14 +69,16 @@ def real_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int,
 
 
 def _ring(mask: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """Pixels around ``mask`` out to a quarter of its size (at least 12 px), 3 px clear of it
-    (its antialiased edge), on no inserted object (``others``)."""
+    """Pixels around ``mask`` out to a quarter of its size (at least 12 px), 6 px clear of it
+    (its antialiased edge, and the camera match's blur and noise there), and as clear of every
+    other inserted object (``others``)."""
     ys, xs = np.nonzero(mask)
     size = max(int(xs.max() - xs.min()), int(ys.max() - ys.min())) + 1
     reach = max(12, size // 4)
     outer = cv2.dilate(mask.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2))
-    inner = cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8))
-    return outer.astype(bool) & ~inner.astype(bool) & ~others
+    clear = np.ones((13, 13), np.uint8)
+    inner = cv2.dilate((mask | others).astype(np.uint8), clear)
+    return outer.astype(bool) & ~inner.astype(bool)
 
 
 def shadow_blotchiness(src: np.ndarray, out: np.ndarray, mask: np.ndarray, objects: np.ndarray) -> float | None:

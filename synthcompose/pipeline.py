@@ -36,7 +36,9 @@ from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .lighting import LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
-from .placement import ALLOWED_SURFACES, ORIENTATION, Placement, check_pose, frame_noise, place_object
+from .placement import (ALLOWED_SURFACES, GROUND_LEVEL, ORIENTATION, Placement, check_pose, frame_noise,
+                        place_object)
+from .placement.noise import K_SIGMA
 from .surfaces import Surfaces, frame_for
 from .render import RenderObject, Renderer
 from .writer import write_outputs, write_record
@@ -349,6 +351,7 @@ class Pipeline:
                 taken.add(inst)
                 placed.append((spec, result.placement, inst))
                 records.append({"result": result, "spec": spec, "instance_id": inst, "model": model, "check": check})
+        noise = frame_noise(frame)  # the stereo error: in the record, and the compose's ground band
         record = {
             "synthcompose_version": __version__,
             "image_set": ident.key,
@@ -357,7 +360,7 @@ class Pipeline:
             "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
                                                                    "camera")},
             "labels": "gtFine" if image_set.labelled else prep.surfaces.to_dict(),
-            "stereo_noise": frame_noise(frame).to_dict(),
+            "stereo_noise": noise.to_dict(),
             "lighting": fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
             else {"mode": "estimate"},  # lighting.py; the estimate replaces it below
             "objects": [],
@@ -399,7 +402,9 @@ class Pipeline:
                                           sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
         with _timed(timings, "compose"):
             scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
-                                occluder_depth(depth), cam.baseline * cam.fx * 256.0)
+                                occluder_depth(depth), cam.baseline * cam.fx * 256.0,
+                                ground=np.isin(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
+                                ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
             composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed], match)
             self._capture("compose", passes=passes, composed=composed, scene=scene)  # preview hook
