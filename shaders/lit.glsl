@@ -62,6 +62,12 @@ uniform mat4 u_sun_matrix;      // vehicle -> sun shadow map [0,1]^3
 uniform sampler2DShadow u_sky_map;
 uniform mat4 u_sky_matrix;      // vehicle -> top-down occlusion map [0,1]^3
 uniform float u_sky_radius;     // occlusion search radius in map units
+uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
+uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
+uniform float u_under_range;    // metres its depth 0..1 spans
+uniform float u_contact_height; // a part this low over the ground darkens it (metres)
+uniform float u_contact_radius; // contact search radius in map units
+uniform float u_self_bias;      // a few centimetres in the sky map's depth units (no self-shadow acne)
 uniform float u_sun_scale;      // sun reaching this object (0 when it stands in a real cast shadow)
 uniform bool u_has_sun_mask;    // the planes take the sun per pixel from u_sun_mask
 uniform sampler2D u_sun_mask;   // sun reaching the real ground at each pixel of the ROI (0 in its shadows)
@@ -92,12 +98,37 @@ float sun_visibility(vec3 p) {
 }
 
 float sky_visibility(vec3 p) {
-    // share of a disc around p with nothing of the objects above it: a soft contact shadow
+    // share of two discs around p (u_sky_radius and 2.5 times it) with nothing of the objects
+    // above: the sky an object hides from the ground falls off smoothly over about its height
     vec4 s = u_sky_matrix * vec4(p, 1.0);
     float vis = texture(u_sky_map, vec3(s.xy, s.z - 0.002));
-    for (int i = 0; i < 12; ++i)
+    for (int i = 0; i < 12; ++i) {
         vis += texture(u_sky_map, vec3(s.xy + DISC[i] * u_sky_radius, s.z - 0.002));
-    return vis / 13.0;
+        vis += texture(u_sky_map, vec3(s.xy - DISC[i] * 2.5 * u_sky_radius, s.z - 0.002));
+    }
+    return vis / 25.0;
+}
+
+float contact_occlusion(vec3 p) {
+    // 1 where a part of an object stands on p (its underside at the ground: a tyre, a foot),
+    // falling off with that part's height over p (u_contact_height), averaged over a small disc
+    vec4 s = u_under_matrix * vec4(p, 1.0);
+    float occ = 0.0;
+    for (int i = 0; i < 13; ++i) {
+        vec2 q = s.xy + (i == 12 ? vec2(0.0) : DISC[i] * u_contact_radius);
+        float h = (texture(u_under_map, q).r - s.z) * u_under_range;  // 1.0: nothing drawn
+        occ += exp(-max(h, 0.0) / u_contact_height);
+    }
+    return occ / 13.0;
+}
+
+// The sky a point of an object sees: less near the ground (the ground and the object itself
+// hide it), and less under a part of the object (a wheel under its arch, the sides under the
+// waist line): its ambient light and reflections fall off there.
+float object_occlusion(vec3 p, float height) {
+    vec4 s = u_sky_matrix * vec4(p, 1.0);
+    float open = texture(u_sky_map, vec3(s.xy, s.z - u_self_bias));
+    return mix(0.35, 1.0, smoothstep(0.0, 0.4, height)) * mix(0.4, 1.0, open);
 }
 
 // Radiance reflected towards the camera from direction r at p: the photo where the ray lands on
@@ -156,7 +187,7 @@ void main() {
     float sky_vis = 1.0;
 #else
     float sun_vis = sun_visibility(v_world);
-    float sky_vis = mix(0.35, 1.0, sky_visibility(v_world));
+    float sky_vis = mix(0.3, 1.0, sky_visibility(v_world)) * (1.0 - 0.85 * contact_occlusion(v_world));
 #endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
     vec3 sun_rgb = u_sun_rgb * sun_scale;
@@ -179,7 +210,8 @@ void main() {
     float metallic = v_material.x;
     float roughness = clamp(v_material.y, 0.05, 1.0);
     float sun_vis = sun_visibility(v_world);
-    vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z);
+    float occlusion = object_occlusion(v_world, v_world.z - v_ground_z);
+    vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * occlusion;
     vec3 sun_rgb = u_sun_rgb * u_sun_scale;
     vec3 diffuse = albedo * (1.0 - metallic) * (ambient + sun_rgb * ndl * sun_vis);
     // glossy part: Schlick Fresnel, sky/ground reflection and a Blinn-Phong sun highlight
@@ -187,7 +219,7 @@ void main() {
     float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
     vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - ndv, 5.0);
     vec3 r = reflect(-v, n);
-    vec3 env = environment(v_world, r, roughness);
+    vec3 env = environment(v_world, r, roughness) * occlusion;
     float gloss = 1.0 - roughness;
     vec3 h = normalize(u_sun_dir + v);
     float shininess = mix(4.0, 512.0, gloss * gloss);

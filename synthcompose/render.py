@@ -28,6 +28,13 @@ NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 SAMPLES = 4
 _PLANE_COL_UNIT = 12  # texture unit of the per-pixel plane colour that fill.glsl (PLANE) reads
+_UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (contact shadows)
+#: the sky's occlusion on the ground is averaged over discs of this radius and 2.5 times it
+#: (metres): under an overcast sky an object shades the ground around it over about its height
+SKY_RADIUS = 0.5
+#: contact shadow: ground under a part of an object lower than about this (metres) loses most
+#: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
+CONTACT_HEIGHT, CONTACT_RADIUS = 0.12, 0.15
 SHADING = ("auto", "pixel", "sample")
 
 
@@ -299,9 +306,11 @@ class Renderer:
         # must see a texture of its own kind (another pass may have left an integer one)
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
         self.shadow_maps = []
-        for _ in range(2):  # sun map, top-down sky-occlusion map
+        for k in range(3):  # sun map, top-down sky-occlusion map, the objects' undersides from below
             tex = gl.own(ctx.depth_texture((shadow_size, shadow_size)))
-            tex.compare_func = "<="
+            # the first two are shadow tests; the third is read as depth: how high the lowest
+            # part of an object stands over each ground point (contact shadows, lit.glsl)
+            tex.compare_func = "<=" if k < 2 else ""
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = False
             fbo = gl.own(ctx.framebuffer(depth_attachment=tex))
@@ -352,7 +361,8 @@ class Renderer:
         centre = (pts.min(0) + pts.max(0)) / 2
         half = float(np.linalg.norm(pts - centre, axis=1).max()) + 0.1
         mats = [half]
-        for direction in (np.asarray(lighting.sun_direction, float), np.array([0.0, 0.0, 1.0])):
+        for direction in (np.asarray(lighting.sun_direction, float), np.array([0.0, 0.0, 1.0]),
+                          np.array([0.0, 0.0, -1.0])):
             direction = direction / np.linalg.norm(direction)
             up = np.array([1.0, 0, 0]) if abs(direction[2]) > 0.99 else np.array([0, 0, 1.0])
             view = _look_at(centre + direction * (half + 5.0), centre, up)
@@ -399,15 +409,19 @@ class Renderer:
             tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
-        half, sun_mat, sky_mat = self._light_matrices(objects, lighting)
-        self._draw_shadow_maps(objects, (sun_mat, sky_mat))
+        half, sun_mat, sky_mat, under_mat = self._light_matrices(objects, lighting)
+        self._draw_shadow_maps(objects, (sun_mat, sky_mat, under_mat))
 
         uniforms: dict[str, object] = {
             "u_view": _gl(view), "u_proj": _gl(proj), "u_camera_pos": tuple(camera.position),
             "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
             "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
             "u_sun_matrix": _gl(_BIAS @ sun_mat), "u_sky_matrix": _gl(_BIAS @ sky_mat),
-            "u_sky_radius": 0.5 / (2 * half),  # 0.5 m in map units
+            "u_sky_radius": SKY_RADIUS / (2 * half),  # in map units
+            "u_under_map": _UNDER_UNIT, "u_under_matrix": _gl(_BIAS @ under_mat),
+            "u_under_range": 2 * half + 10.0 - 0.1,  # metres the under map's depth 0..1 spans
+            "u_self_bias": 0.05 / (2 * half + 10.0 - 0.1),
+            "u_contact_height": CONTACT_HEIGHT, "u_contact_radius": CONTACT_RADIUS / (2 * half),
             "u_texture": 0, "u_normal_map": 6, "u_sun_map": 1, "u_sky_map": 2, "u_photo": 3,
             "u_plane_from_photo": photo is not None,
             # reflections sample the full photo (see _environment)
@@ -425,6 +439,7 @@ class Renderer:
         (tex["sun_mask"] if sun_mask is not None else self._blank).use(5)
         self.shadow_maps[0][0].use(1)
         self.shadow_maps[1][0].use(2)
+        self.shadow_maps[2][0].use(_UNDER_UNIT)
         (tex["photo"] if photo is not None else self._blank).use(3)
         self._blank.use(0)
         self._blank.use(6)
