@@ -199,6 +199,8 @@ void main() {
     out_object = vec4(0.0);
     out_key = vec4(-1.0);
 #else
+    // looked up a little off the surface along its normal, so that a face is not under itself
+    float occlusion = object_occlusion(v_world + 0.1 * n, v_world.z - v_ground_z);
 #if defined NORMAL_MAP
     n = normal_from_map(n, dot(n, v_normal) < 0.0 ? -1.0 : 1.0);
     ndl = max(dot(n, u_sun_dir), 0.0);
@@ -210,7 +212,6 @@ void main() {
     float metallic = v_material.x;
     float roughness = clamp(v_material.y, 0.05, 1.0);
     float sun_vis = sun_visibility(v_world);
-    float occlusion = object_occlusion(v_world, v_world.z - v_ground_z);
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * occlusion;
     vec3 sun_rgb = u_sun_rgb * u_sun_scale;
     vec3 diffuse = albedo * (1.0 - metallic) * (ambient + sun_rgb * ndl * sun_vis);

@@ -57,7 +57,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare_lighting(args: argparse.Namespace) -> int:
-    from .lighting import compare_lighting
+    from .compare import compare_lighting
     from .manifest import load_manifest
 
     results = compare_lighting(load_manifest(args.manifest), Path(args.out), limit=args.limit)

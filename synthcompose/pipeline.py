@@ -26,14 +26,14 @@ from . import __version__
 from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
 from .colour import srgb_to_linear
 from .camera import Camera
-from .compose import CameraMatch, Composed, Composer, SceneLayers
+from .compose import Composed, Composer, SceneLayers
 from .dataset import ImageSet, ImageSetId, read_image_set
 from .errors import InputError, SynthComposeError
 from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, occluder_depth
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
-from .lighting import LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
+from .lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
 from .placement import (ALLOWED_SURFACES, GROUND_LEVEL, ORIENTATION, Placement, check_pose, frame_noise,

@@ -15,8 +15,8 @@ from synthcompose import lighting
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.colour import srgb_to_linear
-from synthcompose.compose import (RENDER_BLUR_SIGMA, CameraMatch, Composer, SceneLayers, estimate_blur,
-                                  estimate_noise)
+from synthcompose.compose import Composer, SceneLayers
+from synthcompose.lighting.camera import RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
 from synthcompose.errors import ManifestError
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, LUM, estimate_lighting
@@ -133,7 +133,7 @@ def test_straight_shadow_edge_decides_the_sun_azimuth(monkeypatch):
     assert est.sunny and est.cues["shadow_line_sun"]
     assert abs((est.cues["shadow_line"][0] - 55.0 + 90.0) % 180.0 - 90.0) <= 5.0
     assert error(est) <= 10.0
-    monkeypatch.setattr(lighting, "LINE_MIN_LENGTH", math.inf)
+    monkeypatch.setattr(lighting.lines, "LINE_MIN_LENGTH", math.inf)
     without = estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera)
     assert not without.cues["shadow_line_sun"] and error(without) > 20.0
 

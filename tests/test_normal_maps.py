@@ -190,7 +190,11 @@ def _render(renderer, model):
     objc = passes.read("objc")
     renderer.release(passes)
     inside = ndimage.binary_erosion(objc[..., 3] > 0.999, iterations=2)
-    assert inside.sum() > 2000
+    # the upper half of the 1 m quad: lower down, lit.glsl darkens what stands near the ground
+    # (object_occlusion), which these shading checks leave out
+    rows = np.nonzero(inside.any(axis=1))[0]
+    inside[(rows.min() + rows.max()) // 2:] = False
+    assert inside.sum() > 1000
     return np.round(linear_to_srgb(objc[..., :3]) * 255).astype(np.int32), inside, objc[..., :3]
 
 

@@ -1,0 +1,198 @@
+"""The working grid: the photo reduced to cells, with their points and normals."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..camera import Camera
+from ..placement.noise import measure_sigma
+from .light import GROUND_IDS, LUM, _FINE_IDS, _LUT
+
+
+@dataclass(eq=False)
+class _Grid:
+    """The photo reduced to cells of ``f`` x ``f`` pixels (mean linear colour)."""
+
+    f: int
+    lin: np.ndarray  # (h, w, 3) float32 linear RGB
+    lum: np.ndarray  # (h, w) float32
+    label: np.ndarray  # (h, w) uint8, the cell's label (pure cells only are used)
+    pure: np.ndarray  # (h, w) bool: one label, finite depth throughout, nothing clipped
+    points: np.ndarray  # (h, w, 3) float64 vehicle-frame point at the cell centre (nan unknown)
+    normals: np.ndarray  # (h, w, 3) unit normals facing the camera (nan where not planar)
+
+
+def _cell_reduce(a: np.ndarray, f: int, op) -> np.ndarray:
+    """Min (``cv2.erode``) or max (``cv2.dilate``) of ``a`` over each f x f cell, (h, w)."""
+    h, w = a.shape[0] // f, a.shape[1] // f
+    if f == 1:
+        return a[:h, :w].copy()
+    # the kernel's anchor (f // 2) puts cell (i, j)'s pixels exactly under output i*f + f//2
+    out = op(np.ascontiguousarray(a[: h * f, : w * f]), np.ones((f, f), np.uint8),
+             borderType=cv2.BORDER_REPLICATE)
+    return out[f // 2:: f, f // 2:: f][:h, :w]
+
+
+def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:
+    """Mean of ``a`` (float32) over each f x f cell, (h, w)."""
+    h, w = a.shape[0] // f, a.shape[1] // f
+    a = a[: h * f, : w * f]
+    return cv2.resize(a, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else a.copy()
+
+
+def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int,
+          smooth: int = 1) -> _Grid:
+    H, W = label_ids.shape
+    f = max(1, int(round(W / work_width)))
+    h, w = H // f, W // f
+    lin = _cell_mean(cv2.LUT(rgb, _LUT), f)
+    lab_min, lab_max = _cell_reduce(label_ids, f, cv2.erode), _cell_reduce(label_ids, f, cv2.dilate)
+    # depth of a cell: the mean of its known depths (stereo leaves holes), if half are known
+    d = depth.astype(np.float32, copy=False)
+    known = np.isfinite(d)
+    n_known = np.rint(_cell_mean(known.astype(np.float32), f) * (f * f))
+    dmin = _cell_reduce(np.where(known, d, np.float32(np.inf)), f, cv2.erode)
+    dmax = _cell_reduce(np.where(known, d, np.float32(-np.inf)), f, cv2.dilate)
+    dsum = _cell_mean(np.where(known, d, np.float32(0.0)), f).astype(np.float64) * (f * f)
+    clipped = _cell_reduce(cv2.max(cv2.max(rgb[..., 0], rgb[..., 1]), rgb[..., 2]), f, cv2.dilate) >= 250
+    pure = (lab_min == lab_max) & (2 * n_known >= f * f) & (dmax <= dmin * 1.04 + 0.02) & ~clipped
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(2 * n_known >= f * f, dsum / np.maximum(n_known, 1), np.nan).astype(np.float64)
+    if smooth > 1:
+        z = _smoothed_depth(z, lab_min, lab_min == lab_max, smooth)
+    uc = (np.arange(w) * f + (f - 1) / 2.0)[None, :]
+    vc = (np.arange(h) * f + (f - 1) / 2.0)[:, None]
+    opt = np.stack([(uc - camera.u0) * z / camera.fx, (vc - camera.v0) * z / camera.fy, z], axis=-1)
+    m = camera.vehicle_from_optical
+    pts = opt @ m[:3, :3].T + m[:3, 3]
+    normals = _normals(pts, lab_min, pure, camera)
+    if f > 1:  # a face narrower than 5 cells, or a cell within 2 of a corner: at pixel scale
+        rr, cc = np.nonzero(pure & np.isnan(normals[..., 0]) & np.isin(lab_min, _FINE_IDS))
+        normals[rr, cc] = _fine_normals(rr * f + f // 2, cc * f + f // 2, label_ids, d, camera)
+    lum = (lin @ LUM.astype(np.float32)).astype(np.float32)
+    return _Grid(f, lin, lum, lab_min, pure, pts, normals)
+
+
+#: a frame whose disparity errs by more than this (pixels, :func:`noise.measure_sigma` on its
+#: ground) came from a real matcher: its cells are averaged over SMOOTH x SMOOTH before the
+#: normals are taken; exact disparity (1/256 px coding, measured at the floor) keeps its cells
+NOISY_SIGMA_D, SMOOTH = 0.15, 3
+
+
+def smoothing_for(depth: np.ndarray, label_ids: np.ndarray, camera: Camera) -> tuple[int, float]:
+    """(cells to average, the frame's measured disparity error in pixels)."""
+    fb = camera.fx * camera.baseline
+    with np.errstate(divide="ignore"):
+        disparity = np.where(np.isfinite(depth), fb / depth, np.nan).astype(np.float32)
+    sigma = measure_sigma(disparity, np.isin(label_ids, GROUND_IDS))
+    return (SMOOTH if sigma > NOISY_SIGMA_D else 1), sigma
+
+
+def _smoothed_depth(z: np.ndarray, label: np.ndarray, one_label: np.ndarray, cells: int) -> np.ndarray:
+    """Cell depths with their disparity (1 / z) averaged over the ``cells`` x ``cells`` cells
+    of the same label around each cell. Real stereo (semi-global matching) errs by a few tenths
+    of a pixel of disparity, about the same everywhere, so the depth error grows with z^2: at
+    20 m, +-0.2 px is +-17 cm along the ray, while neighbouring cells 3 px apart are 3 cm apart
+    on the ground - the normals from cell differences are noise. On a plane the disparity is an
+    affine function of the pixel, so its average over cells is the plane's own disparity at
+    their centroid: planes stay planar and the noise drops by about the window's width."""
+    known = np.isfinite(z) & one_label
+    disp = np.where(known, 1.0 / np.where(known, z, 1.0), 0.0).astype(np.float32)
+    out = z.copy()
+    k = (cells, cells)
+    for lab in np.unique(label[known]):
+        m = (known & (label == lab)).astype(np.float32)
+        num = cv2.boxFilter(disp * m, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        den = cv2.boxFilter(m, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        sel = m > 0
+        out[sel] = 1.0 / np.maximum(num[sel] / den[sel], 1e-6)
+    return out
+
+
+def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera) -> np.ndarray:
+    """Normals from differences of cell points 1 and 2 cells apart; nan where the surface is not
+    locally planar (creases, depth edges), where the two disagree or where labels change."""
+    h, w, _ = p.shape
+    out = np.full((h, w, 3), np.nan, np.float32)
+    if h < 5 or w < 5:
+        return out
+    # one plane per coordinate, relative to the camera (unknown cells fail `pure` anyway)
+    rel = np.nan_to_num(p - camera.position, nan=0.0).astype(np.float32)
+    P = [np.ascontiguousarray(rel[..., i]) for i in range(3)]
+    c = (slice(2, h - 2), slice(2, w - 2))
+
+    def sh(dr: int, dc: int) -> tuple[slice, slice]:
+        return slice(2 + dr, h - 2 + dr), slice(2 + dc, w - 2 + dc)
+
+    ok = pure[c].copy()
+    lab0 = label[c]
+    for dr in range(-2, 3):
+        for dc in (-2, -1, 0, 1, 2):
+            if (dr == 0) != (dc == 0):
+                ok &= pure[sh(dr, dc)] & (label[sh(dr, dc)] == lab0)
+    p0 = [q[c] for q in P]
+    normals = []
+    for k in (1, 2):
+        du, dv = [], []
+        for q, q0 in zip(P, p0):
+            qa, qb, qc, qd = q[sh(0, k)], q[sh(0, -k)], q[sh(k, 0)], q[sh(-k, 0)]
+            du.append(qa - qb)
+            dv.append(qc - qd)
+            if q is P[0]:
+                dev_u, dev_v = (qa + qb - 2 * q0) ** 2, (qc + qd - 2 * q0) ** 2
+            else:
+                dev_u += (qa + qb - 2 * q0) ** 2
+                dev_v += (qc + qd - 2 * q0) ** 2
+        # collinearity along each axis: a crease or a depth edge bends it
+        for dev, span in ((dev_u, du), (dev_v, dv)):
+            ok &= np.sqrt(dev) <= 0.08 * np.sqrt(span[0] ** 2 + span[1] ** 2 + span[2] ** 2) + 1e-3
+        n = [du[1] * dv[2] - du[2] * dv[1], du[2] * dv[0] - du[0] * dv[2], du[0] * dv[1] - du[1] * dv[0]]
+        norm = np.maximum(np.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2), 1e-12)
+        normals.append([v / norm for v in n])
+    n1, n2 = normals
+    ok &= np.abs(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) >= math.cos(math.radians(10))
+    # facing the camera: against the point's offset from it
+    sign = np.where(n2[0] * p0[0] + n2[1] * p0[1] + n2[2] * p0[2] > 0, np.float32(-1.0), np.float32(1.0))
+    sign[~ok] = np.nan
+    out[c] = np.stack([v * sign for v in n2], axis=-1)
+    return out
+
+
+def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
+                  camera: Camera) -> np.ndarray:
+    """(N, 3) normals at pixels (r, c) from the photo's own pixels 1 and 2 apart, with the tests
+    of :func:`_normals`; nan where they fail (or too near the image border)."""
+    H, W = label_ids.shape
+    out = np.full((len(r), 3), np.nan, np.float32)
+    idx = np.nonzero((r >= 2) & (r < H - 2) & (c >= 2) & (c < W - 2))[0]
+    r, c = r[idx], c[idx]
+    # a pixel's vehicle-frame point is z * (col_ray[u] + row_ray[v]) + t
+    m = camera.vehicle_from_optical
+    col_ray = (((np.arange(W) - camera.u0) / camera.fx)[:, None] * m[:3, 0]).astype(np.float32)
+    row_ray = (((np.arange(H) - camera.v0) / camera.fy)[:, None] * m[:3, 1] + m[:3, 2]).astype(np.float32)
+    lab0 = label_ids[r, c]
+    ok = np.ones(len(r), bool)
+
+    def point(dr: int, dc: int) -> np.ndarray:  # relative to the camera's position
+        nonlocal ok
+        z = depth[r + dr, c + dc]
+        ok &= np.isfinite(z) & (label_ids[r + dr, c + dc] == lab0)
+        return np.where(np.isfinite(z), z, 0)[:, None] * (col_ray[c + dc] + row_ray[r + dr])
+
+    p0 = point(0, 0)
+    normals = []
+    for k in (1, 2):
+        a_u, b_u, a_v, b_v = point(0, k), point(0, -k), point(k, 0), point(-k, 0)
+        du, dv = a_u - b_u, a_v - b_v
+        for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
+            ok &= np.linalg.norm(a + b - 2 * p0, axis=-1) <= 0.08 * np.linalg.norm(span, axis=-1) + 1e-3
+        n = np.cross(du, dv)
+        normals.append(n / np.maximum(np.linalg.norm(n, axis=-1), 1e-12)[:, None])
+    n1, n2 = normals
+    ok &= np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
+    n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)  # facing the camera
+    out[idx] = np.where(ok[:, None], n2, np.nan)
+    return out

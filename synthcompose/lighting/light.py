@@ -1,0 +1,196 @@
+"""The light of one photo (:class:`LightEstimate`), its record, and the constants the cues share."""
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..colour import srgb_to_linear
+from ..render import Lighting
+
+
+#: Rec. 709 luminance weights of linear RGB
+LUM = np.array([0.2126, 0.7152, 0.0722])
+#: typical albedo of asphalt and of sidewalk paving (linear luminance): the exposure reference
+ROAD_ALBEDO, SIDEWALK_ALBEDO = 0.10, 0.25
+#: limits of the recorded exposure
+EXPOSURE_RANGE = (0.2, 3.0)
+#: a sun needs cast shadows on the ground: two brightness levels whose fit gains this many nats
+#: per sample over one level, the shadow darker than this (log ratio: -0.35 = 30 % darker)
+MIN_TWO_LEVEL_GAIN, MAX_SHADOW_LOG_RATIO = 0.05, -0.35
+#: without shadows on the ground, a sun needs the shading to gain this many nats per pair, at a
+#: direction that leaves the ground in view lit and scores within the margin of the best one
+LIT_GROUND_MIN_GAIN, LIT_GROUND_MARGIN, LIT_GROUND_KNOWN = 1.0, 0.05, 0.15
+#: where the geometry cannot tell (the sun behind the camera), the ground counts as lit when the
+#: pairs the sun lights reach down to it: the lowest tenth of them below this height (metres)
+LIT_PAIRS_LOW = 0.4
+#: weight of the geometric shadow agreement against the shading cue in the direction's score
+SHADOW_AGREEMENT_WEIGHT = 0.1
+
+GROUND_IDS = (6, 7, 8, 9, 10)  # ground, road, sidewalk, parking, rail track
+ROAD_ID, SIDEWALK_ID, SKY_ID = 7, 8, 23
+#: things standing on the ground that cast shadows (static, dynamic, constructions, objects,
+#: vegetation, humans, vehicles)
+OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33)
+#: surface classes whose albedo is locally constant enough for the shading pairs
+SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
+_FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
+
+_LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+
+
+def _unit(c) -> np.ndarray:
+    """Colour scaled to luminance 1 (neutral when it has none)."""
+    c = np.maximum(np.asarray(c, np.float64), 1e-6)
+    y = float(c @ LUM)
+    return c / y if y > 1e-6 else np.ones(3)
+
+
+def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+    return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+
+
+def _r(v, nd: int = 4):
+    if isinstance(v, dict):
+        return {str(k): _r(x, nd) for k, x in v.items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_r(x, nd) for x in v]
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return round(float(v), nd)
+    return v
+
+
+@dataclass(frozen=True)
+class LightEstimate:
+    """The light of one photo, in the vehicle frame (ISO 8855), linear RGB.
+
+    sunny              : a sun was found (cast shadows on the ground, or a clear shading sun
+                         that leaves all the ground in view lit, or all in shadow), else ambient
+                         light only
+    sun_azimuth_deg    : towards the sun, from x (forward) to y (left); best fit even when not sunny
+    sun_elevation_deg  : above the horizon
+    sun_fraction       : share of an up-facing unshadowed surface's irradiance from the sun
+                         (0 when not sunny); the sky's share is ``1 - sun_fraction``
+    sky_rgb, sun_rgb, ground_rgb : colours (luminance 1) of the ambient light from above, of the
+                         sun and of the light bounced from the ground
+    ground_ratio       : ambient from below over ambient from above
+    exposure           : irradiance of an up-facing lit surface implied by the photo's
+                         brightness (lit road / :data:`ROAD_ALBEDO`); 1 = the renderer's nominal
+    confidence         : 0..1, how clearly the ground decides sunny against not sunny
+    ground_levels      : ((label id, lit linear luminance), ...) of the ground classes, and
+    shadow_log_ratio   : log(shadow / lit) on them: where an inserted object's ground is in a
+                         real shadow (:meth:`sun_visibility`)
+    ground_shadowed    : the sun does not reach the ground in view (it lights the walls above):
+                         all of it is in shadow, whatever its brightness
+    evidence           : the cues the estimate rests on ("ground": lit and shadowed ground
+                         samples, "shading": surface pairs, "sky": the sky's colour); empty: none
+                         was found and the estimate is the fallback (an overcast grey sky)
+    cues               : diagnostics of each cue (recorded)
+    """
+
+    sunny: bool
+    sun_azimuth_deg: float
+    sun_elevation_deg: float
+    sun_fraction: float
+    sky_rgb: tuple[float, float, float]
+    sun_rgb: tuple[float, float, float]
+    ground_rgb: tuple[float, float, float]
+    ground_ratio: float
+    exposure: float
+    confidence: float
+    ground_levels: tuple[tuple[int, float], ...] = ()
+    shadow_log_ratio: float = 0.0
+    ground_shadowed: bool = False
+    evidence: tuple[str, ...] = ()
+    cues: dict = field(default_factory=dict, compare=False, hash=False)
+
+    @property
+    def sun_direction(self) -> tuple[float, float, float]:
+        return tuple(float(v) for v in _direction(self.sun_azimuth_deg, self.sun_elevation_deg))
+
+    @property
+    def sky_share(self) -> float:
+        """Share of an up-facing unshadowed surface's irradiance from the sky (1 overcast)."""
+        return 1.0 - self.sun_fraction
+
+    def to_lighting(self, exposure: float = 1.0) -> Lighting:
+        """The renderer's light: an up-facing unshadowed surface gets ``exposure`` (luminance);
+        1 is the :class:`Lighting` convention, ``self.exposure`` matches the photo's brightness."""
+        f = self.sun_fraction if self.sunny else 0.0
+        sky = exposure * (1.0 - f) * _unit(self.sky_rgb)
+        ground = exposure * self.ground_ratio * (1.0 - f) * _unit(self.ground_rgb)
+        # without a sun its direction only sizes the ground planes for shadows: straight up
+        d = _direction(self.sun_azimuth_deg, self.sun_elevation_deg) if self.sunny else np.array([0.0, 0.0, 1.0])
+        sun = exposure * f / max(d[2], 0.05) * _unit(self.sun_rgb)
+        t = lambda c: tuple(float(v) for v in c)  # noqa: E731
+        return Lighting(t(d), t(sun), t(sky), t(ground))
+
+    def sun_visibility(self, label: int, linear_rgb) -> float:
+        """How much sun reaches ground of class ``label`` whose photo colour (linear RGB) is
+        ``linear_rgb``: 1 lit, 0 in a real cast shadow (from its brightness between the lit and
+        the shadow level), 1 when not sunny or the class was not measured; 0 on any ground
+        under a sun that does not reach it (``ground_shadowed``)."""
+        if not self.sunny or self.shadow_log_ratio >= 0:
+            return 1.0
+        if self.ground_shadowed and int(label) in GROUND_IDS:
+            return 0.0
+        levels = dict(self.ground_levels)
+        if int(label) not in levels:
+            return 1.0
+        y = float(np.asarray(linear_rgb, np.float64) @ LUM)
+        return float(self._ramp(np.log(max(y, 1e-6)), levels[int(label)]))
+
+    def _ramp(self, loglum, level: float):
+        """0 at the shadow level, 1 at the lit level, linear over the middle half of the step
+        in log luminance (so that the ground's texture does not modulate the sun)."""
+        t = (loglum - (math.log(level) + self.shadow_log_ratio)) / -self.shadow_log_ratio
+        return np.clip((t - 0.25) / 0.5, 0.0, 1.0)
+
+    def sun_mask(self, rgb: np.ndarray, label_ids: np.ndarray) -> np.ndarray | None:
+        """(H, W) float32: :meth:`sun_visibility` of every ground pixel of the photo (its
+        luminance smoothed over 5x5 pixels), 1 elsewhere; None when not sunny."""
+        if not self.sunny or self.shadow_log_ratio >= 0 or not self.ground_levels:
+            return None
+        mask = np.ones(label_ids.shape, np.float32)
+        if self.ground_shadowed:
+            mask[np.isin(label_ids, GROUND_IDS)] = 0.0
+            return mask
+        lum = cv2.blur(_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
+        for label, level in self.ground_levels:
+            sel = label_ids == label
+            mask[sel] = self._ramp(np.log(np.maximum(lum[sel], 1e-6)), level)
+        return mask
+
+    def to_dict(self) -> dict:
+        """JSON-ready record of the estimate."""
+        return {
+            "mode": "estimate",
+            "sunny": self.sunny,
+            "sun_azimuth_deg": _r(self.sun_azimuth_deg, 1), "sun_elevation_deg": _r(self.sun_elevation_deg, 1),
+            "sun_fraction": _r(self.sun_fraction, 3), "sky_share": _r(self.sky_share, 3),
+            "sky_rgb": _r(self.sky_rgb), "sun_rgb": _r(self.sun_rgb), "ground_rgb": _r(self.ground_rgb),
+            "ground_ratio": _r(self.ground_ratio, 3), "exposure": _r(self.exposure, 3),
+            "confidence": _r(self.confidence, 3),
+            "ground_levels": {str(k): _r(v, 5) for k, v in self.ground_levels},
+            "shadow_log_ratio": _r(self.shadow_log_ratio, 3), "ground_shadowed": self.ground_shadowed,
+            "evidence": list(self.evidence), "fallback": not self.evidence,
+            "cues": _r(self.cues),
+        }
+
+
+def fixed_record(lighting: Lighting, **params) -> dict:
+    """The record of a fixed (manifest) light: the manifest's keys and the light they give."""
+    return {**{k: v for k, v in params.items() if v is not None}, "mode": "fixed", **lighting.to_dict()}
+
+
+def camera_noise_seed(seed: int, key: str) -> int:
+    """Seed of the camera-match noise of one image set: a function of (seed, image set) only."""
+    return int(np.random.default_rng([int(seed), zlib.crc32(key.encode()), 0x6E6F6973]).integers(2**31))
