@@ -34,6 +34,7 @@ uniform sampler2D u_noise;         // standard normal noise per channel (seeded,
 uniform vec3 u_noise_sigma;        // the photo's noise, sRGB [0, 1] units; 0: no noise
 uniform float u_blur_sigma;        // Gaussian blur of the object layer, pixels
 uniform int u_blur_radius;         // its half width in pixels; 0: no blur
+uniform vec2 u_tone[16];           // camera look of object k: (gain, saturation) on its linear colour
 uniform sampler2D u_layer_obj;     // layers() of every pixel (the LAYERS pass), when blurring
 uniform sampler2D u_layer_bg;
 
@@ -55,10 +56,22 @@ bool label_in_front(uint label) {
     return (u_front_labels[label >> 5u] & (1u << (label & 31u))) != 0u;
 }
 
+// The tone of the object at pixel q: its index at the pixel centre, or a neighbour's at an edge
+// the centre misses; identity where none is found.
+vec2 tone_at(ivec2 q) {
+    ivec2 hi = textureSize(u_id, 0) - 1;
+    for (int i = 0; i < 9; ++i) {
+        ivec2 r = clamp(q + ivec2((i + 4) % 3 - 1, (i + 4) / 3 % 3 - 1), ivec2(0), hi);
+        uint id = texelFetch(u_id, r, 0).r;
+        if (id > 0u) return u_tone[id];
+    }
+    return vec2(1.0);
+}
+
 // What the compose needs at pixel q, fetched once: the photo R (linear), the passes, the real
 // depth and label, and whether the object and its plane are seen in front of the real scene.
 struct Pixel {
-    vec3 R, irpv, ir;
+    vec3 R, irpv, ir, c;
     float a, sd;
     uint label;
     bool front, ground, obj_vis, plane_vis;
@@ -68,6 +81,7 @@ Pixel fetch(ivec2 q) {
     Pixel x;
     x.R = srgb_to_linear(texelFetch(u_photo, q, 0).rgb);
     x.irpv = texelFetch(u_irpv, q, 0).rgb;
+    x.c = texelFetch(u_objc, q, 0).rgb;
     x.ir = texelFetch(u_ir, q, 0).rgb;
     x.a = texelFetch(u_alpha, q, 0).r;
     vec2 plane = texelFetch(u_plane, q, 0).rg;
@@ -77,6 +91,14 @@ Pixel fetch(ivec2 q) {
     x.ground = texelFetch(u_ground, q, 0).r != 0u;
     x.obj_vis = x.a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(x.a, 1e-6), x.sd, x.front, x.ground);
     x.plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, x.sd, x.front, x.ground);
+    if (x.a > 0.0) {
+        // the camera's look on the object (its share of Irpv): gain and saturation in linear light
+        vec2 t = tone_at(q);
+        float y = dot(x.c, vec3(0.2126, 0.7152, 0.0722));
+        vec3 toned = t.x * max(vec3(y) + t.y * (x.c - vec3(y)), vec3(0.0));
+        x.irpv += toned - x.c;
+        x.c = toned;
+    }
     return x;
 }
 
@@ -86,7 +108,7 @@ Pixel fetch(ivec2 q) {
 void layers(ivec2 q, out vec4 obj, out vec3 bg) {
     Pixel x = fetch(q);
     if (x.obj_vis) {
-        vec3 c = texelFetch(u_objc, q, 0).rgb;
+        vec3 c = x.c;
         obj = vec4(c, x.a);
         // Irpv = C + (1 - a) * shadowed plane; where the object covers all, B is not known
         bg = x.a < 0.999 ? x.R + (x.irpv - c) / (1.0 - x.a) - x.ir : x.R;

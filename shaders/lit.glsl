@@ -67,6 +67,9 @@ uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
 uniform float u_contact_height; // a part this low over the ground darkens it (metres)
 uniform float u_contact_radius; // contact search radius in map units
+uniform int u_recolour_n;       // materials of this object drawn in other colours (at most 3)
+uniform vec4 u_recolour_key[3]; // their base colour factors
+uniform vec3 u_recolour_rgb[3]; // and the colours (linear albedo) they get
 uniform float u_self_bias;      // a few centimetres in the sky map's depth units (no self-shadow acne)
 uniform float u_sun_scale;      // sun reaching this object (0 when it stands in a real cast shadow)
 uniform bool u_has_sun_mask;    // the planes take the sun per pixel from u_sun_mask
@@ -206,6 +209,8 @@ void main() {
     ndl = max(dot(n, u_sun_dir), 0.0);
 #endif
     vec3 albedo = v_color.rgb;
+    for (int i = 0; i < u_recolour_n; ++i)  // this object's paint or clothes (appearance.py)
+        if (all(lessThan(abs(v_color - u_recolour_key[i]), vec4(1e-3)))) albedo = u_recolour_rgb[i];
 #if defined TEXTURE
     albedo *= srgb_to_linear(texture(u_texture, v_uv).rgb);
 #endif

@@ -84,9 +84,12 @@ class Composer:
         self._zero = gl.texture((1, 1), 4, np.zeros((1, 1, 4), np.float32), dtype="f4")  # unused samplers
 
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
-                    instances: Sequence[int], match: CameraMatch | None = None) -> dict[str, np.ndarray]:
+                    instances: Sequence[int], match: CameraMatch | None = None,
+                    tones: Sequence[tuple[float, float]] | None = None) -> dict[str, np.ndarray]:
         """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity.
-        ``match``: blur and noise for the object layer (None: none)."""
+        ``match``: blur and noise for the object layer (None: none); ``tones``: (gain, saturation)
+        of each object's linear colour, the camera's look (lighting.camera.object_tones; None:
+        as rendered)."""
         if len(classes) > MAX_OBJECTS:
             raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
         gl, ctx = self.gl.activate(), self.gl.ctx
@@ -122,7 +125,11 @@ class Composer:
             for prog in (self.prog, self.layers_prog):
                 if name in prog:
                     prog[name].value = unit
+        tone = np.ones((16, 2), np.float32)
+        for k, (gain, sat) in enumerate(tones or (), start=1):
+            tone[k] = gain, sat
         for prog in (self.prog, self.layers_prog):
+            prog["u_tone"].write(tone.tobytes())
             prog["u_ground_band"].value = float(scene.ground_band)
             prog["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
         layers = []
@@ -166,13 +173,14 @@ class Composer:
                 "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
 
     def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
-                instances: Sequence[int], match: CameraMatch | None = None) -> Composed:
+                instances: Sequence[int], match: CameraMatch | None = None,
+                tones: Sequence[tuple[float, float]] | None = None) -> Composed:
         """Full-frame result: the scene's arrays with the ROI replaced by the composition."""
         out = Composed(scene.rgb.copy(), scene.label_ids.copy(), scene.instance_ids.copy(), scene.disparity.copy(),
                        np.zeros(scene.label_ids.shape, np.uint8))
         if passes is None:
             return out
-        roi_out = self.compose_roi(passes, scene, classes, instances, match)
+        roi_out = self.compose_roi(passes, scene, classes, instances, match, tones)
         rows, cols = passes.roi.slices
         for name, arr in roi_out.items():
             getattr(out, name)[rows, cols] = arr

@@ -56,6 +56,7 @@ SCHEMA: dict[str, Any] = {
                     "weight": _POS,
                     "allowed_surfaces": {"type": "array", "items": {"type": "string"}, "minItems": 1},
                     "orientation": {"enum": ["along-road", "parked", "face-camera", "random"]},
+                    "appearance": {"enum": ["varied", "model"]},
                 },
             },
         },
@@ -111,6 +112,7 @@ class ObjectSpec:
     weight: float
     allowed_surfaces: tuple[str, ...] | None
     orientation: str | None
+    appearance: str = "varied"  # "varied": paint / clothes drawn per object (appearance.py); "model": as modelled
 
 
 @dataclass(frozen=True)
@@ -179,7 +181,7 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
             up=o.get("up", "+y" if not o["model"].startswith(BUILTIN_PREFIX) else "+z"),
             forward=o.get("forward", "+x"), weight=float(o.get("weight", 1.0)),
             allowed_surfaces=tuple(o["allowed_surfaces"]) if "allowed_surfaces" in o else None,
-            orientation=o.get("orientation")))
+            orientation=o.get("orientation"), appearance=o.get("appearance", "varied")))
     p = data.get("placement", {})
     dist = tuple(float(v) for v in p.get("distance", PlacementRules.distance))
     if dist[0] >= dist[1]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import io
 import json
+import re
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +26,9 @@ GLASS_RGB = np.array([0.015, 0.02, 0.025], np.float32)
 #: a model above this many triangles is refused rather than rendered slowly
 MAX_TRIANGLES = 2_000_000
 
+#: textured materials with such names are drawn blank (:data:`NEUTRAL_PLATE`, linear RGBA)
+_NEUTRAL = re.compile(r"licen[cs]e|plate|decal|logo|badge", re.IGNORECASE)
+NEUTRAL_PLATE = (0.55, 0.55, 0.52, 1.0)
 _AXES = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
 
 
@@ -174,6 +178,10 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
                 metal_rough[:, 1] = mat.roughnessFactor
             if mat.baseColorTexture is not None:
                 texture = _as_rgba_u8(mat.baseColorTexture)
+            if texture is not None and _NEUTRAL.search(mat.name or ""):
+                # a plate, a decal, a logo: its text or brand would be the same on every object
+                # (a model learns it); drawn as a blank plate instead
+                texture, colors[:] = None, NEUTRAL_PLATE
             if mat.normalTexture is not None and normal_scales and mat.name in normal_scales:
                 normal_texture = _as_rgba_u8(mat.normalTexture)
                 normal_scale = normal_scales[mat.name]

@@ -23,6 +23,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import __version__
+from .appearance import Appearance, appearance_rng, draw_appearance
 from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
 from .colour import srgb_to_linear
 from .camera import Camera
@@ -34,6 +35,7 @@ from .geometry import Frame, disparity_to_depth, occluder_depth
 from .gl import GLContext
 from .labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from .lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting, fixed_record
+from .lighting.camera import ToneReference, object_tones
 from .manifest import Manifest, ObjectSpec
 from .models import load_model
 from .placement import (ALLOWED_SURFACES, GROUND_LEVEL, ORIENTATION, Placement, check_pose, frame_noise,
@@ -121,6 +123,7 @@ class _Prepared:
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
     estimate: LightEstimate | None  # lighting "estimate" mode
     match: CameraMatch | None  # lighting "camera_match"
+    reference: ToneReference | None  # with camera_match: the tones of the frame's own objects
 
 
 @dataclass(frozen=True, eq=False)
@@ -312,10 +315,12 @@ class Pipeline:
             estimate = match = None
             if m.lighting_mode == "estimate":
                 estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
+            reference = None
             if m.camera_match:
                 match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
+                reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None)
         # --- end lighting
-        return _Prepared(image_set, camera_json, depth, frame, surfaces, rng, estimate, match)
+        return _Prepared(image_set, camera_json, depth, frame, surfaces, rng, estimate, match, reference)
 
     def _compute(self, ident: ImageSetId, prep: "_Prepared", timings: dict[str, float]) -> "_Computed | Outcome":
         """Placement, render and compose: what the writer needs, or the outcome when nothing is placed."""
@@ -396,8 +401,11 @@ class Pipeline:
                 albedo = ground_albedo(image_set.rgb, frame, pl, allowed)
                 # lighting: an object standing in a real cast shadow gets no sun
                 sun = 1.0 if estimate is None else estimate.sun_visibility(int(frame.label_ids[pl.pixel]), albedo)
-                objects.append(RenderObject(rec["model"], pl.matrix, albedo, sun_visibility=sun))
-                rec["plane_albedo"], rec["sun_visibility"] = albedo, sun
+                # appearance: this object's paint or clothes, drawn apart from the placement's draws
+                look = draw_appearance(rec["model"], spec.class_name, appearance_rng(m.seed, ident.key, len(objects))) \
+                    if spec.appearance == "varied" else Appearance()
+                objects.append(RenderObject(rec["model"], pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour))
+                rec["plane_albedo"], rec["sun_visibility"], rec["appearance"] = albedo, sun, look
             passes = self.renderer.render(cam, objects, lighting, photo=image_set.rgb,  # lighting: real shadows
                                           sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
         with _timed(timings, "compose"):
@@ -406,7 +414,15 @@ class Pipeline:
                                 ground=np.isin(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
                                 ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
-            composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed], match)
+            tones = None
+            if passes is not None and prep.reference is not None:  # lighting: the camera's look on the objects
+                fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
+                looks = object_tones(passes.read("objc"), passes.read("id"), classes,
+                                     [rec["appearance"].rank for rec in records], prep.reference, fallback, match)
+                tones = [(t["gain"], t["saturation"]) for t in looks]
+                for rec, t in zip(records, looks):
+                    rec["camera_look"] = t
+            composed = self.composer.compose(passes, scene, classes, [inst for _, _, inst in placed], match, tones)
             self._capture("compose", passes=passes, composed=composed, scene=scene)  # preview hook
             rendered = np.zeros(len(placed) + 1, np.int64)
             amodal = [None] * len(placed)  # annotations: amodal 2D box of each object
@@ -453,6 +469,9 @@ class Pipeline:
                     "occluded_fraction": round(1.0 - int(mask.sum()) / max(int(c.rendered[k]), 1), 4),
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
+                    "appearance": rec["appearance"].to_dict(),
+                    **({"camera_look": {k: (round(v, 4) if isinstance(v, float) else v) for k, v in rec["camera_look"].items()}}
+                       if "camera_look" in rec else {}),
                     "placement_source": "saved" if c.saved else "random",  # saved placements
                     **({} if rec["check"] is None else {"placement_check": rec["check"]}),
                 })

@@ -86,6 +86,7 @@ class RenderObject:
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
     plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
+    recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
 
     def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
         """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
@@ -275,6 +276,16 @@ class _GpuModel:
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""
         self.vao(self._programs[name]).render(moderngl.TRIANGLES)
+
+
+def _set_recolour(prog: moderngl.Program, recolour) -> None:
+    """lit.glsl's recolour uniforms for one object (its paint or clothes)."""
+    keys, rgbs = np.zeros((3, 4), np.float32), np.zeros((3, 3), np.float32)
+    for i, (key, rgb) in enumerate(recolour[:3]):
+        keys[i], rgbs[i] = key, rgb
+    prog["u_recolour_n"].value = min(len(recolour), 3)
+    prog["u_recolour_key"].write(keys.tobytes())
+    prog["u_recolour_rgb"].write(rgbs.tobytes())
 
 
 class Renderer:
@@ -617,6 +628,7 @@ class Renderer:
                 prog = variants[key]
                 prog["u_model"].write(_gl(obj.vehicle_from_object))
                 prog["u_sun_scale"].value = float(obj.sun_visibility)
+                _set_recolour(prog, obj.recolour)
                 if maps.base is not None:
                     maps.base.use(0)
                 if maps.normal is not None:

@@ -113,3 +113,128 @@ class CameraMatch:
         return {"noise_sigma_8bit": [round(v, 3) for v in self.noise_sigma],
                 "blur_sigma_px": round(self.blur_sigma, 3), "object_blur_sigma_px": round(self.object_blur_sigma, 3),
                 "noise_seed": self.seed}
+
+
+# ---------------------------------------------------------------- the camera's tone on the object
+#: real objects of a class with fewer visible pixels are not references (too far, too hidden)
+MIN_REFERENCE_PIXELS = 400
+#: a class needs this many references in the frame (else its group's, else none)
+MIN_REFERENCES = 3
+#: the central share of the references' tones an object's tone is placed in
+CENTRAL = (0.15, 0.85)
+#: classes that stand in for each other as references (Cityscapes ids): vehicles, people
+REFERENCE_GROUPS = ((26, 27, 28, 29, 30, 31, 32, 33), (24, 25))
+_LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
+
+
+def _srgb(c: np.ndarray) -> np.ndarray:
+    c = np.clip(c, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def _linear(v: float) -> float:
+    return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+
+
+def _hsv_vs(srgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """HSV value and saturation (0-255) of sRGB colours in [0, 1], (N, 3)."""
+    mx, mn = srgb.max(axis=1), srgb.min(axis=1)
+    return 255.0 * mx, 255.0 * np.where(mx > 0, (mx - mn) / np.maximum(mx, 1e-9), 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class ToneReference:
+    """The tones of the frame's own objects, per class (Cityscapes id): (n, 2) arrays of each
+    object's median HSV value and saturation (0-255) - what this camera makes of such objects."""
+
+    tones: dict
+
+    @classmethod
+    def measure(cls, rgb: np.ndarray, instance_ids: np.ndarray | None) -> "ToneReference":
+        """From the photo and its instance ids (None or no instances: no references)."""
+        if instance_ids is None:
+            return cls({})
+        tones: dict[int, list] = {}
+        ids, counts = np.unique(instance_ids[instance_ids >= 1000], return_counts=True)
+        hsv = None
+        for inst, n in zip(ids, counts):
+            if n < MIN_REFERENCE_PIXELS:
+                continue
+            m = cv2.erode((instance_ids == inst).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+            if m.sum() < 20:
+                continue
+            if hsv is None:
+                hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV_FULL)
+            px = hsv[m]
+            tones.setdefault(int(inst) // 1000, []).append((float(np.median(px[:, 2])), float(np.median(px[:, 1]))))
+        return cls({k: np.asarray(v) for k, v in tones.items()})
+
+    def for_class(self, class_id: int) -> tuple[np.ndarray | None, str]:
+        """The reference tones for an object of ``class_id`` and what they are: its class's, else
+        its group's (vehicles, people), else None."""
+        own = self.tones.get(class_id)
+        if own is not None and len(own) >= MIN_REFERENCES:
+            return own, f"class x{len(own)}"
+        for group in REFERENCE_GROUPS:
+            if class_id in group:
+                found = [self.tones[c] for c in group if c in self.tones]
+                if found and sum(len(f) for f in found) >= MIN_REFERENCES:
+                    pooled = np.concatenate(found)
+                    return pooled, f"group x{len(pooled)}"
+        return None, "none"
+
+
+def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray) -> float:
+    """The factor s (c' = Y + s (c - Y), linear) that gives ``colours`` (N, 3) the median HSV
+    saturation ``target`` once the camera's ``noise`` (N, 3, sRGB units) is on them, as the
+    compose puts it (bisection; saturation grows with s)."""
+    y = (colours @ _LUM)[:, None]
+
+    def median_s(s: float) -> float:
+        return float(np.median(_hsv_vs(np.clip(_srgb(np.maximum(y + s * (colours - y), 0.0)) + noise, 0, 1))[1]))
+
+    lo, hi = 0.0, 4.0
+    if median_s(hi) <= target:
+        return hi
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if median_s(mid) < target else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: ToneReference,
+                 fallback_gain: float = 1.0, match: CameraMatch | None = None) -> list[dict]:
+    """The camera's look for each rendered object k = 1..K (``objc``: the render's premultiplied
+    object colour, ``ids``: its object index per pixel; ``classes``/``ranks``: each object's
+    Cityscapes id and its appearance's (lightness, colourfulness) rank).
+
+    Where the frame has references for its class, the object's median HSV value and saturation
+    are placed at its ranks within the central :data:`CENTRAL` share of the references' tones
+    (a white car among the frame's lighter cars, a black one among its darker; order kept, the
+    frame's exposure, contrast and muted colours taken on): a gain and a saturation factor on
+    its linear colour. The references' tones include the camera's noise, so the object's are
+    taken with the noise ``match`` will give it (noise makes dark colours look more saturated).
+    Without references the gain is ``fallback_gain`` (the photo's exposure) and the colours
+    stay. Returns per object {"gain", "saturation", "reference"}."""
+    out = []
+    for k, (cid, (q_v, q_s)) in enumerate(zip(classes, ranks), start=1):
+        ref, what = reference.for_class(int(cid))
+        sel = (ids == k) & (objc[..., 3] >= 0.999)
+        if ref is None or sel.sum() < 20:
+            out.append({"gain": float(fallback_gain), "saturation": 1.0, "reference": what if ref is None else "too small"})
+            continue
+        colours = objc[..., :3][sel].astype(np.float64)
+        if len(colours) > 20000:
+            colours = colours[:: len(colours) // 20000 + 1]
+        lo, hi = CENTRAL
+        v_t = float(np.quantile(ref[:, 0], lo + (hi - lo) * q_v))
+        s_t = float(np.quantile(ref[:, 1], lo + (hi - lo) * q_s))
+        sigma = np.asarray(match.noise_sigma if match is not None else (0.0, 0.0, 0.0), float) / 255.0
+        noise = np.random.default_rng(k).standard_normal(colours.shape) * sigma
+        sat = _saturation_for(colours, s_t, noise)
+        y = (colours @ _LUM)[:, None]
+        v_now = float(np.median(_hsv_vs(_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
+        gain = _linear(v_t / 255.0) / max(_linear(v_now / 255.0), 1e-6)
+        out.append({"gain": float(np.clip(gain, 0.05, 20.0)), "saturation": float(sat), "reference": what,
+                    "target_hsv_value": round(v_t, 1), "target_hsv_saturation": round(s_t, 1)})
+    return out
