@@ -135,6 +135,7 @@ def report(label: str, figs: dict) -> dict:
     print(f"cars inside the real cars' 10-90 % range (V and S): {inside}/{len(cars)}")
     print("shadow blotchiness per object:", " ".join(f"{n}:{b:.2f}" for _, n, b in figs["shadows"] if b is not None))
     print(f"shadow blotchiness: {result['shadow_blotchiness']}")
+    print("contact error per object:", " ".join(f"{n}:{c:+.3f}" for _, n, c in figs["contacts"] if c is not None))
     print(f"contact error |real/object - 1|: {result['contact_error']}")
     print(f"light estimate with evidence: {result['light_evidence']}")
     return result

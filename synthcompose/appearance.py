@@ -98,8 +98,19 @@ def _skin(rgb) -> bool:
     return r > g > b > 0.01 and 1.5 <= r / b <= 6.0 and 0.1 <= 0.2126 * r + 0.7152 * g + 0.0722 * b <= 0.7
 
 
+_FOUND: dict[tuple[str, str], list] = {}
+
+
 def recolourable(model: Model, class_name: str) -> list[tuple[float, float, float, float]]:
-    """The material keys of ``model`` that vary for its class (module docstring); may be empty."""
+    """The material keys of ``model`` that vary for its class (module docstring); may be empty.
+    Found once per model and class."""
+    key = (model.key, class_name)
+    if key not in _FOUND:
+        _FOUND[key] = _recolourable(model, class_name)
+    return list(_FOUND[key])
+
+
+def _recolourable(model: Model, class_name: str) -> list[tuple[float, float, float, float]]:
     mats = [m for m in _materials(model) if m[0][3] >= 0.99 and not m[4] and m[2] < 0.5]
     if class_name in VEHICLES:
         glossy = [m for m in mats if m[3] < PAINT_MAX_ROUGHNESS]

@@ -113,12 +113,14 @@ def decode_depth(disparity: np.ndarray, focal_baseline: float) -> np.ndarray:
 
 
 def contact_error(src_depth: np.ndarray, out_depth: np.ndarray, mask: np.ndarray, ground: np.ndarray,
-                  below: int = 3, span: int = 4) -> float | None:
-    """Relative error ``median(real depth just below) / median(object depth) - 1`` at the
-    object's lowest points: the columns of ``mask`` whose lowest pixel lies within 2 % of the
-    object's height (at least 2 px) of its lowest row, the real depth ``below`` .. below+span
-    pixels under them where that is ``ground`` (else the column is skipped: something stands in
-    front of the foot). None without such columns."""
+                  span: int = 12) -> float | None:
+    """Relative error ``real depth / object depth - 1`` at the object's lowest points: the
+    columns of ``mask`` whose lowest pixel lies within 2 % of the object's height (at least
+    2 px) of its lowest row. The real depth there is the real ground's just below them: the
+    ground is a plane, so its disparity is affine in the pixel - fitted (least squares) to the
+    ``ground`` pixels in the ``span`` rows under those columns and read at the contact pixels
+    (one pixel lower, the ground at 35 m is already 1.3 % nearer). Columns whose foot is hidden
+    (no ground right under it) are left out. None without enough ground."""
     ys, xs = np.nonzero(mask)
     if not len(ys):
         return None
@@ -128,17 +130,34 @@ def contact_error(src_depth: np.ndarray, out_depth: np.ndarray, mask: np.ndarray
     lowest, top = int(ys.max()), int(ys.min())
     near = max(2, int(round(0.02 * (lowest - top + 1))))
     cols = np.nonzero((bottom >= lowest - near) & (bottom >= 0))[0]
-    obj, real = [], []
-    for c in cols:
-        b = bottom[c]
-        rows = np.arange(b + below, min(b + below + span, H))
-        rows = rows[ground[rows, c] & np.isfinite(src_depth[rows, c])]
-        if len(rows) and np.isfinite(out_depth[b, c]):
-            obj.append(out_depth[b, c])
-            real.append(np.median(src_depth[rows, c]))
-    if len(obj) < 2:
+    cols = cols[np.isfinite(out_depth[bottom[cols], cols])]
+    # only where the foot is seen: the pixel under it is ground, not something in front of it
+    below = np.minimum(bottom[cols] + 1, H - 1)
+    cols = cols[ground[below, cols] & (bottom[cols] + 1 < H)]
+    if len(cols) < 2:
         return None
-    return float(np.median(real) / np.median(obj) - 1.0)
+    uu, vv, dd, used = [], [], [], []
+    for c in cols:
+        rows = np.arange(bottom[c] + 1, min(bottom[c] + 1 + span, H))
+        rows = rows[ground[rows, c] & np.isfinite(src_depth[rows, c])]
+        if len(rows) < span // 2:  # under the foot is mostly something else (a nearer object)
+            continue
+        used.append(c)
+        uu.append(np.full(len(rows), c))
+        vv.append(rows)
+        dd.append(1.0 / src_depth[rows, c])
+    if not uu:
+        return None
+    u, v, d = np.concatenate(uu), np.concatenate(vv), np.concatenate(dd)
+    if len(d) < 10 or np.ptp(v) < 2:
+        return None
+    A = np.column_stack([np.ones(len(u)), u, v]).astype(np.float64)
+    coef, *_ = np.linalg.lstsq(A, d, rcond=None)
+    cols = np.asarray(used)
+    inv = coef[0] + coef[1] * cols + coef[2] * bottom[cols]
+    if (inv <= 0).any():
+        return None
+    return float(np.median(1.0 / inv) / np.median(out_depth[bottom[cols], cols]) - 1.0)
 
 
 # ------------------------------------------------------------------ the side-by-side view

@@ -34,7 +34,7 @@ _UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (con
 SKY_RADIUS = 0.5
 #: contact shadow: ground under a part of an object lower than about this (metres) loses most
 #: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
-CONTACT_HEIGHT, CONTACT_RADIUS = 0.12, 0.15
+CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
 SHADING = ("auto", "pixel", "sample")
 
 

@@ -84,11 +84,11 @@ exposure implies. It is applied only where the manifest asks for it (``match_exp
 """
 from __future__ import annotations
 
-from . import lines
+from . import estimate, lines
 from .camera import CameraMatch, estimate_blur, estimate_noise
 from .estimate import estimate_lighting
 from .light import (GROUND_IDS, LUM, OCCLUDER_IDS, SHADING_IDS, LightEstimate, camera_noise_seed,
                     fixed_record)
 
-__all__ = ["CameraMatch", "GROUND_IDS", "LUM", "LightEstimate", "OCCLUDER_IDS", "SHADING_IDS", "camera_noise_seed",
+__all__ = ["CameraMatch", "estimate", "GROUND_IDS", "LUM", "LightEstimate", "OCCLUDER_IDS", "SHADING_IDS", "camera_noise_seed",
            "estimate_blur", "estimate_lighting", "estimate_noise", "fixed_record", "lines"]

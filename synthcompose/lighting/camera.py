@@ -184,14 +184,15 @@ class ToneReference:
         return None, "none"
 
 
-def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray) -> float:
-    """The factor s (c' = Y + s (c - Y), linear) that gives ``colours`` (N, 3) the median HSV
-    saturation ``target`` once the camera's ``noise`` (N, 3, sRGB units) is on them, as the
+def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray, gain: float) -> float:
+    """The factor s (c' = gain (Y + s (c - Y)), linear) that gives ``colours`` (N, 3) the median
+    HSV saturation ``target`` once the camera's ``noise`` (N, 3, sRGB units) is on them, as the
     compose puts it (bisection; saturation grows with s)."""
     y = (colours @ _LUM)[:, None]
 
     def median_s(s: float) -> float:
-        return float(np.median(_hsv_vs(np.clip(_srgb(np.maximum(y + s * (colours - y), 0.0)) + noise, 0, 1))[1]))
+        c = gain * np.maximum(y + s * (colours - y), 0.0)
+        return float(np.median(_hsv_vs(np.clip(_srgb(c) + noise, 0, 1))[1]))
 
     lo, hi = 0.0, 4.0
     if median_s(hi) <= target:
@@ -231,10 +232,12 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
         s_t = float(np.quantile(ref[:, 1], lo + (hi - lo) * q_s))
         sigma = np.asarray(match.noise_sigma if match is not None else (0.0, 0.0, 0.0), float) / 255.0
         noise = np.random.default_rng(k).standard_normal(colours.shape) * sigma
-        sat = _saturation_for(colours, s_t, noise)
         y = (colours @ _LUM)[:, None]
-        v_now = float(np.median(_hsv_vs(_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
-        gain = _linear(v_t / 255.0) / max(_linear(v_now / 255.0), 1e-6)
+        gain = 1.0
+        for _ in range(4):  # the gain moves the saturation in sRGB a little: solve the two in turn
+            sat = _saturation_for(colours, s_t, noise, gain)
+            v_now = float(np.median(_hsv_vs(_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
+            gain = _linear(v_t / 255.0) / max(_linear(v_now / 255.0), 1e-6)
         out.append({"gain": float(np.clip(gain, 0.05, 20.0)), "saturation": float(sat), "reference": what,
                     "target_hsv_value": round(v_t, 1), "target_hsv_saturation": round(s_t, 1)})
     return out

@@ -17,6 +17,11 @@ from . import lines
 from .lines import _along_line, _shadow_line
 
 
+#: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
+#: direction
+UNSURE_ELEVATION = 70.0
+
+
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
                       work_width: int = 700) -> LightEstimate:
     """Estimate the light of one photo.
@@ -100,7 +105,11 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cues.update(info)
         cues["direction_score"] = score
     cues["shadow_line_sun"] = line_sun is not None
-    sunny = bool(two_levels and score > 0.0)
+    # cast shadows on the ground say there is a sun; the shading pairs, where there are any, may
+    # veto it (no direction explains them); without pairs (real stereo gives few normals good
+    # enough beyond a few metres) the shadows decide, and the direction is marked unsure
+    sunny = bool(two_levels and (score > 0.0 or pairs is None))
+    cues["sun_direction_sure"] = bool(sunny and score > 0.0)
     # without two levels, a sun may still show: tried in turn, a shading sun that leaves all the
     # ground in view lit, the casters' shadows, a shading sun that leaves it all in shadow
     lit_ground = cast = shaded = None
@@ -141,6 +150,10 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     else:
         delta = _core_step(shadow, mix)
     cues["ground_shadow_core_log_ratio"] = delta
+    if sunny and not cues["sun_direction_sure"] and lit_ground is None and cast is None and shaded is None:
+        # the shadows show a sun but nothing shows where: a high sun, whose shadow falls short
+        # and under the object, is the least wrong guess (a shadow thrown the wrong way is seen)
+        el = max(el, UNSURE_ELEVATION)
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sunny else 0.0
     confidence = strength if sunny else ((1.0 - strength) if mix is not None else 0.3)
     cues["shadow_evidence"] = strength
