@@ -9,9 +9,11 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from pycocotools import mask as mask_util
 
 from .batch import select
 from .fileio import read_json, read_png, write_png
+from .look import side_by_side
 from .pipeline import Pipeline
 
 
@@ -46,6 +48,8 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
     * ``<frame>_fixed_vs_estimated.png`` : output with the fixed light | with the estimated light
     * ``<frame>_before_after.png``       : input | output with the estimated light
     * ``<frame>_zoom.png``               : input | fixed | estimated, cropped around the objects
+    * ``<frame>_object<k>_side_by_side.png`` : per object, input | output | the nearest real object
+      of its class in the frame (:func:`synthcompose.look.side_by_side`; labelled frames)
 
     The two full outputs go to ``out_dir/fixed`` and ``out_dir/estimated``. Returns one entry
     per image set (its status and the PNGs written).
@@ -106,6 +110,19 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
             for img in imgs[1:]:
                 row += [gap, img]
             write_png(path, np.concatenate(row, axis=1))
+            entry["written"].append(str(path))
+        # per object: input | output | the nearest real object of its class (labelled frames)
+        real_ids = read_png(ident.path(manifest.dataset, "instanceIds"), "gray16").astype(np.int32) \
+            if ident.path(manifest.dataset, "instanceIds").is_file() else None
+        for obj in rec["estimated"].get("objects", []):
+            rle = obj.get("mask_rle")
+            if not rle:
+                continue
+            mask = mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)
+            if not mask.any():
+                continue
+            path = out_dir / f"{name}_object{obj['index']}_side_by_side.png"
+            write_png(path, side_by_side(src, out["estimated"], mask, real_ids, obj["label_id"]))
             entry["written"].append(str(path))
         entry["lighting"] = rec["estimated"]["lighting"]
         results.append(entry)

@@ -426,4 +426,7 @@ def test_compare_lighting_command(tmp_path, capsys):
     side = cv2.imread(str(out / f"{key}_fixed_vs_estimated.png"))
     assert side.shape[1] == 2 * W + 6
     assert not (out / f"{ids[1].key.replace('/', '_')}_zoom.png").exists()  # --limit 1
+    # per object: input | output | the nearest real object of its class
+    objects = sorted(out.glob(f"{key}_object*_side_by_side.png"))
+    assert objects and all(cv2.imread(str(p)).shape[0] == 256 + 22 for p in objects)
     assert "fixed_vs_estimated.png" in capsys.readouterr().out
