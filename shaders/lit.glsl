@@ -131,7 +131,9 @@ float contact_occlusion(vec3 p) {
 float object_occlusion(vec3 p, float height) {
     vec4 s = u_sky_matrix * vec4(p, 1.0);
     float open = texture(u_sky_map, vec3(s.xy, s.z - u_self_bias));
-    return mix(0.35, 1.0, smoothstep(0.0, 0.4, height)) * mix(0.4, 1.0, open);
+    for (int i = 0; i < 6; ++i)  // a few centimetres around: no jagged edge where it turns
+        open += texture(u_sky_map, vec3(s.xy + DISC[i] * 0.3 * u_contact_radius, s.z - u_self_bias));
+    return mix(0.35, 1.0, smoothstep(0.0, 0.4, height)) * mix(0.4, 1.0, open / 7.0);
 }
 
 // Radiance reflected towards the camera from direction r at p: the photo where the ray lands on

@@ -318,7 +318,8 @@ class Pipeline:
             reference = None
             if m.camera_match:
                 match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
-                reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None)
+                reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
+                                                  frame.label_ids)
         # --- end lighting
         return _Prepared(image_set, camera_json, depth, frame, surfaces, rng, estimate, match, reference)
 

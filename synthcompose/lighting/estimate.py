@@ -20,6 +20,9 @@ from .lines import _along_line, _shadow_line
 #: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
 #: direction
 UNSURE_ELEVATION = 70.0
+#: without shading pairs to confirm them, two ground levels mean a sun only this clearly (the
+#: strength: gain and depth of the shadow step, 0..1); weaker ones are dark paving, wet patches
+UNCONFIRMED_STRENGTH = 0.3
 
 
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
@@ -107,8 +110,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     cues["shadow_line_sun"] = line_sun is not None
     # cast shadows on the ground say there is a sun; the shading pairs, where there are any, may
     # veto it (no direction explains them); without pairs (real stereo gives few normals good
-    # enough beyond a few metres) the shadows decide, and the direction is marked unsure
-    sunny = bool(two_levels and (score > 0.0 or pairs is None))
+    # enough beyond a few metres) clear shadows decide alone, and the direction is marked unsure
+    sunny = bool(two_levels and (score > 0.0 if pairs is not None else strength >= UNCONFIRMED_STRENGTH))
     cues["sun_direction_sure"] = bool(sunny and score > 0.0)
     # without two levels, a sun may still show: tried in turn, a shading sun that leaves all the
     # ground in view lit, the casters' shadows, a shading sun that leaves it all in shadow
