@@ -85,7 +85,8 @@ def measure(root: Path, out: Path, truth: Path | None, views: Path | None, tag: 
             if m.sum() < 50:
                 continue
             blot = look.shadow_blotchiness(src.rgb, res.rgb, m, objects)
-            contact = look.contact_error(src_depth, out_depth, m, ground & ~objects)
+            contact = look.contact_error(src_depth, out_depth, m, ground & ~objects,
+                                         labels=ref.label_ids if ref is not None else None)
             shadows.append((ident.key, obj["name"], blot, obj["distance_m"]))
             contacts.append((ident.key, obj["name"], contact))
             if obj["label_id"] == CAR and m.sum() >= look.MIN_REAL_PIXELS and len(real) >= 3:
@@ -150,12 +151,13 @@ def report(label: str, figs: dict) -> dict:
 
 
 def run(root: Path, base: Path, seeds, objects: int, car_weight: float, truth: Path | None, views: bool,
-        tag: str) -> dict:
+        tag: str, measure_only: bool = False) -> dict:
     figs = {"cars": [], "shadows": [], "contacts": [], "lights": []}
     for seed in seeds:
         out = base / f"out_{seed}"
-        manifest = load_manifest(write_manifest(root, out, objects, seed, car_weight, base))
-        run_batch(manifest, workers=1, progress=False, resume=False)
+        if not measure_only:
+            manifest = load_manifest(write_manifest(root, out, objects, seed, car_weight, base))
+            run_batch(manifest, workers=1, progress=False, resume=False)
         f = measure(root, out, truth, base / "views" if views else None, f"{tag}_s{seed}")
         for k in figs:
             figs[k] += f[k]
@@ -172,6 +174,7 @@ def main(argv=None) -> int:
     ap.add_argument("--car-weight", type=float, default=6.0, help="the car's weight (others 1)")
     ap.add_argument("--out", type=Path, help="keep outputs and side-by-side views here (default: temporary)")
     ap.add_argument("--json", type=Path, help="write the figures here")
+    ap.add_argument("--measure-only", action="store_true", help="measure the outputs already under --out")
     a = ap.parse_args(argv)
     if a.root is None and not a.generated:
         ap.error("give a ROOT, --generated N, or both")
@@ -181,14 +184,15 @@ def main(argv=None) -> int:
         if a.root is not None:
             (base / "real").mkdir(parents=True, exist_ok=True)
             results["real"] = run(a.root.resolve(), base / "real", a.seeds, a.objects, a.car_weight, a.truth,
-                                  a.out is not None, "real")
+                                  a.out is not None, "real", a.measure_only)
         if a.generated:
             from synthcompose.synthetic import make_sample
 
             gen = base / "generated"
-            make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=11)
+            if not a.measure_only:
+                make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=11)
             results["generated"] = run(gen / "cityscapes", gen, a.seeds, a.objects, a.car_weight, None,
-                                       a.out is not None, "generated")
+                                       a.out is not None, "generated", a.measure_only)
     if a.json:
         a.json.write_text(json.dumps(results, indent=2, default=str))
     return 0

@@ -405,7 +405,8 @@ class Pipeline:
                 # appearance: this object's paint or clothes, drawn apart from the placement's draws
                 look = draw_appearance(rec["model"], spec.class_name, appearance_rng(m.seed, ident.key, len(objects))) \
                     if spec.appearance == "varied" else Appearance()
-                objects.append(RenderObject(rec["model"], pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour))
+                objects.append(RenderObject(rec["model"], pl.matrix, albedo, sun_visibility=sun,
+                                            recolour=look.recolour))
                 rec["plane_albedo"], rec["sun_visibility"], rec["appearance"] = albedo, sun, look
             passes = self.renderer.render(cam, objects, lighting, photo=image_set.rgb,  # lighting: real shadows
                                           sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
@@ -471,8 +472,8 @@ class Pipeline:
                     "truncated": pl.truncated,
                     "placement": {"attempts": rec["result"].attempts, "rejections": rec["result"].rejections},
                     "appearance": rec["appearance"].to_dict(),
-                    **({"camera_look": {k: (round(v, 4) if isinstance(v, float) else v) for k, v in rec["camera_look"].items()}}
-                       if "camera_look" in rec else {}),
+                    **({"camera_look": {k: (round(v, 4) if isinstance(v, float) else v)
+                                        for k, v in rec["camera_look"].items()}} if "camera_look" in rec else {}),
                     "placement_source": "saved" if c.saved else "random",  # saved placements
                     **({} if rec["check"] is None else {"placement_check": rec["check"]}),
                 })

@@ -14,7 +14,7 @@ import pytest
 from synthcompose import lighting
 from synthcompose.camera import Camera
 from synthcompose.cli import main
-from synthcompose.colour import linear_to_srgb, srgb_to_linear
+from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import Composer, SceneLayers
 from synthcompose.lighting.camera import RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
 from synthcompose.errors import ManifestError
@@ -22,8 +22,8 @@ from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, LUM, estimate_lighting
 from synthcompose.manifest import parse_manifest
 from synthcompose.render import RenderPasses, Roi
-from synthcompose.synthetic import (SceneLight, camera_look, make_sample, random_scene, render_scene,
-                                   render_scene_sunlit)
+from synthcompose.synthetic import SceneLight, make_sample, random_scene, render_scene, render_scene_sunlit
+from synthcompose.synthetic.camera import recorded_colour
 
 #: The sun's direction and share are still checked on exact geometry and the clean shading
 #: (their cues - pairs of faces, shadow edges - need normals that real stereo gives only at
@@ -61,11 +61,8 @@ def estimate(seed: int, light: SceneLight | None, stereo: str = LIGHT_STEREO, ph
 
 
 def recorded(tint, scene) -> np.ndarray:
-    """The colour a light of ``tint`` has once this scene's camera records it (its look:
-    white balance, muting, tone curve - synthetic.camera_look), measured on a mid-grey patch."""
-    patch = np.full((8, 8, 3), 0.12, np.float32) * np.asarray(tint, np.float32) / (np.asarray(tint) @ LUM)
-    srgb = np.rint(np.clip(linear_to_srgb(patch), 0, 1) * 255).astype(np.float32)
-    return srgb_to_linear(camera_look(srgb, scene.noise_seed) / 255.0).reshape(-1, 3).mean(axis=0)
+    """The colour a light of ``tint`` has once this scene's camera records it."""
+    return recorded_colour(tint, scene.noise_seed)
 
 
 # ------------------------------------------------------------------ the light

@@ -14,6 +14,7 @@ from pycocotools import mask as mask_util
 from synthcompose import look
 from synthcompose.appearance import CLOTHES, PAINTS, appearance_rng, draw_appearance, palette_rank, recolourable
 from synthcompose.cli import main
+from synthcompose.colour import linear_to_srgb
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting.camera import ToneReference, object_tones
@@ -77,7 +78,7 @@ def test_object_tones_reach_their_rank_among_the_frames_objects():
     c = objc[ids == 1][:, :3].astype(np.float64)
     y = c @ np.array([0.2126, 0.7152, 0.0722])
     toned = t["gain"] * np.maximum(y[:, None] + t["saturation"] * (c - y[:, None]), 0)
-    srgb = np.clip(np.where(toned <= 0.0031308, 12.92 * toned, 1.055 * np.power(np.clip(toned, 0, 1), 1 / 2.4) - 0.055), 0, 1)
+    srgb = np.clip(linear_to_srgb(np.clip(toned, 0, 1)), 0, 1)
     v, s = 255 * srgb.max(1), 255 * (srgb.max(1) - srgb.min(1)) / np.maximum(srgb.max(1), 1e-9)
     assert np.median(v) == pytest.approx(np.quantile(ref.tones[26][:, 0], 0.5), abs=2.0)
     assert np.median(s) == pytest.approx(np.quantile(ref.tones[26][:, 1], 0.5), abs=2.0)

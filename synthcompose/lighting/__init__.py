@@ -90,5 +90,5 @@ from .estimate import estimate_lighting
 from .light import (GROUND_IDS, LUM, OCCLUDER_IDS, SHADING_IDS, LightEstimate, camera_noise_seed,
                     fixed_record)
 
-__all__ = ["CameraMatch", "estimate", "GROUND_IDS", "LUM", "LightEstimate", "OCCLUDER_IDS", "SHADING_IDS", "camera_noise_seed",
-           "estimate_blur", "estimate_lighting", "estimate_noise", "fixed_record", "lines"]
+__all__ = ["CameraMatch", "GROUND_IDS", "LUM", "LightEstimate", "OCCLUDER_IDS", "SHADING_IDS", "camera_noise_seed",
+           "estimate", "estimate_blur", "estimate_lighting", "estimate_noise", "fixed_record", "lines"]

@@ -244,7 +244,8 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
         ref, what = reference.for_class(int(cid))
         sel = (ids == k) & (objc[..., 3] >= 0.999)
         if ref is None or sel.sum() < 20:
-            out.append({"gain": float(fallback_gain), "saturation": 1.0, "reference": what if ref is None else "too small"})
+            out.append({"gain": float(fallback_gain), "saturation": 1.0,
+                        "reference": what if ref is None else "too small"})
             continue
         colours = objc[..., :3][sel].astype(np.float64)
         if len(colours) > 20000:

@@ -50,3 +50,13 @@ def camera_look(rgb: np.ndarray, seed: int) -> np.ndarray:
     flare = np.float32(rng.uniform(*FLARE))
     lin = (np.float32(exposure) * np.power(lin, np.float32(gamma)) + flare) * gains
     return (linear_to_srgb(np.clip(lin, 0.0, 1.0)) * np.float32(255.0)).astype(np.float32)
+
+
+def recorded_colour(rgb_linear, seed: int) -> np.ndarray:
+    """(3,) linear colour that a light of colour ``rgb_linear`` has once the camera of photo seed
+    ``seed`` records it (:func:`camera_look`: white balance, muting, tone curve), measured on a
+    mid-grey patch: what an estimate of the light from that photo can find."""
+    c = np.asarray(rgb_linear, np.float32)
+    patch = np.full((8, 8, 3), 0.12, np.float32) * c / float(c @ np.array([0.2126, 0.7152, 0.0722], np.float32))
+    srgb = np.rint(np.clip(linear_to_srgb(patch), 0, 1) * 255).astype(np.float32)
+    return srgb_to_linear(camera_look(srgb, seed) / np.float32(255.0)).reshape(-1, 3).mean(axis=0)
