@@ -417,9 +417,10 @@ class Pipeline:
                                 ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
             classes = [label_id(spec.class_name) for spec, _, _ in placed]
             tones = None
+            ids = passes.read("id") if passes is not None else None  # object index per pixel
             if passes is not None and prep.reference is not None:  # lighting: the camera's look on the objects
                 fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
-                looks = object_tones(passes.read("objc"), passes.read("id"), classes,
+                looks = object_tones(passes.read("objc"), ids, classes,
                                      [rec["appearance"].rank for rec in records], prep.reference, fallback, match)
                 tones = [(t["gain"], t["saturation"]) for t in looks]
                 for rec, t in zip(records, looks):
@@ -429,8 +430,8 @@ class Pipeline:
             rendered = np.zeros(len(placed) + 1, np.int64)
             amodal = [None] * len(placed)  # annotations: amodal 2D box of each object
             if passes is not None:
-                rendered = np.bincount(passes.read("id").ravel(), minlength=len(placed) + 1)
-                amodal = amodal_boxes(passes.read("id"), passes.roi, len(placed))  # annotations
+                rendered = np.bincount(ids.ravel(), minlength=len(placed) + 1)
+                amodal = amodal_boxes(ids, passes.roi, len(placed))  # annotations
                 self.renderer.release(passes)
         return _Computed(ident, record, records, saved is not None, composed, amodal, rendered, cam,
                          prep.camera_json)

@@ -122,6 +122,8 @@ MIN_REFERENCE_PIXELS = 400
 MIN_REFERENCES = 3
 #: the central share of the references' tones an object's tone is placed in
 CENTRAL = (0.15, 0.85)
+#: object pixels the tone is measured on (an even spread of them)
+TONE_SAMPLES = 4000
 #: classes that stand in for each other as references (Cityscapes ids): vehicles, people
 REFERENCE_GROUPS = ((26, 27, 28, 29, 30, 31, 32, 33), (24, 25))
 _LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -219,7 +221,7 @@ def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray, gain:
     lo, hi = 0.0, 4.0
     if median_s(hi) <= target:
         return hi
-    for _ in range(24):
+    for _ in range(16):  # to 4 / 2^16: far below one step of 8-bit saturation
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if median_s(mid) < target else (lo, mid)
     return 0.5 * (lo + hi)
@@ -248,8 +250,8 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
                         "reference": what if ref is None else "too small"})
             continue
         colours = objc[..., :3][sel].astype(np.float64)
-        if len(colours) > 20000:
-            colours = colours[:: len(colours) // 20000 + 1]
+        if len(colours) > TONE_SAMPLES:  # an even spread: a median needs no more
+            colours = colours[:: len(colours) // TONE_SAMPLES + 1]
         lo, hi = CENTRAL
         v_t = float(np.quantile(ref[:, 0], lo + (hi - lo) * q_v))
         s_t = float(np.quantile(ref[:, 1], lo + (hi - lo) * q_s))
@@ -257,7 +259,7 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
         noise = np.random.default_rng(k).standard_normal(colours.shape) * sigma
         y = (colours @ _LUM)[:, None]
         gain = 1.0
-        for _ in range(4):  # the gain moves the saturation in sRGB a little: solve the two in turn
+        for _ in range(3):  # the gain moves the saturation in sRGB a little: solve the two in turn
             sat = _saturation_for(colours, s_t, noise, gain)
             v_now = float(np.median(_hsv_vs(_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
             gain = _linear(v_t / 255.0) / max(_linear(v_now / 255.0), 1e-6)
