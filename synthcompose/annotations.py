@@ -350,26 +350,46 @@ def coco_document(out_root: Path) -> dict[str, Any]:
             continue
         if not isinstance(record, dict) or record.get("status") != "done":
             continue
-        if "image" not in record or any("mask_rle" not in o for o in record.get("objects", [])):
+        try:
+            image, objects = _coco_entries(record, len(images) + 1, len(annotations))
+        except (KeyError, TypeError, ValueError, IndexError) as exc:  # hand-edited, or another tool's
+            log.warning("%s: record is malformed (%s: %s); left out of %s", path, type(exc).__name__, exc, COCO_NAME)
+            continue
+        if image is None:
             log.warning("%s: record has no masks (written by an older version); left out of %s", path, COCO_NAME)
             continue
-        image_id = len(images) + 1
-        images.append({"id": image_id, "file_name": record["image"]["file_name"],
-                       "width": record["image"]["width"], "height": record["image"]["height"],
-                       "image_set": record["image_set"]})
-        for obj in record["objects"]:
-            if not obj.get("visible_pixels") or obj.get("bbox_2d") is None:
-                continue
-            classes[obj["label_id"]] = obj["class"]
-            annotations.append({
-                "id": len(annotations) + 1, "image_id": image_id, "category_id": obj["label_id"],
-                "bbox": xywh(obj["bbox_2d"]), "area": obj["visible_pixels"],
-                "segmentation": obj["mask_rle"], "iscrowd": 0, "instance_id": obj["instance_id"],
-            })
+        images.append(image)
+        for ann, name in objects:
+            classes[ann["category_id"]] = name
+            annotations.append(ann)
     categories = [{"id": cid, "name": name, "supercategory": name2label[name].category}
                   for cid, name in sorted(classes.items())]
     return {"info": {"description": "synthcompose: the inserted objects only (not the real scene's)"},
             "licenses": [], "images": images, "annotations": annotations, "categories": categories}
+
+
+def _coco_entries(record: dict, image_id: int, first: int) -> tuple[dict | None, list[tuple[dict, str]]]:
+    """The COCO image of a done record and its annotations (with their class names), numbered
+    from ``image_id`` and ``first`` + 1; (None, []) for a record without masks. Raises
+    KeyError / TypeError / ValueError on a malformed record."""
+    objects = record.get("objects", [])
+    if "image" not in record or any("mask_rle" not in o for o in objects):
+        return None, []
+    im = record["image"]
+    image = {"id": image_id, "file_name": str(im["file_name"]), "width": int(im["width"]),
+             "height": int(im["height"]), "image_set": str(record["image_set"])}
+    anns = []
+    for obj in objects:
+        if not obj.get("visible_pixels") or obj.get("bbox_2d") is None:
+            continue
+        if str(obj["class"]) not in name2label:
+            raise ValueError(f"unknown class {obj['class']!r}")
+        anns.append(({
+            "id": first + len(anns) + 1, "image_id": image_id, "category_id": int(obj["label_id"]),
+            "bbox": xywh(obj["bbox_2d"]), "area": int(obj["visible_pixels"]),
+            "segmentation": dict(obj["mask_rle"]), "iscrowd": 0, "instance_id": int(obj["instance_id"]),
+        }, str(obj["class"])))
+    return image, anns
 
 
 def write_coco(out_root: Path) -> Path:

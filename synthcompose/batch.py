@@ -28,17 +28,20 @@ from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
-from .dataset import ImageSetId, find_image_sets
-from .errors import SynthComposeError
-from .fileio import read_json, write_json
+from .dataset import ImageSetId, find_image_sets, input_fingerprint
+from .errors import ManifestError, SynthComposeError
+from .fileio import PART_TAG, read_json, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
 from .pipeline import STAGES, Outcome, Pipeline
+from .writer import discard_outputs, output_paths
 
 log = logging.getLogger("synthcompose")
 
 LOCK_NAME = ".synthcompose.lock"
+#: the dataset's input folders (Cityscapes layout): an output root must not be or lie in them
+INPUT_FOLDERS = ("leftImg8bit", "rightImg8bit", "gtFine", "disparity", "camera", "gtBbox3d")
 #: fault injection (tests): a worker process given this image set key crashes with SIGSEGV
 FAULT_CRASH_ENV = "SYNTHCOMPOSE_FAULT_CRASH"
 
@@ -54,6 +57,7 @@ class Summary:
     workers: int = 1
     engine: str = "local"
     class_counts: dict[str, int] | None = None  # "balance" mode: the dataset's objects per class
+    notes: list[str] = field(default_factory=list)  # what went wrong outside any image set
 
     def count(self, status: str) -> int:
         return sum(o.status == status for o in self.outcomes)
@@ -83,6 +87,8 @@ class Summary:
         }
         if self.class_counts is not None:
             out["class_counts"] = self.class_counts
+        if self.notes:
+            out["notes"] = list(self.notes)
         return out
 
     def text(self) -> str:
@@ -128,6 +134,8 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
         return None
     if not isinstance(record, dict) or record.get("config_sha256") != manifest.config_hash:
         return None
+    if record.get("source_fingerprint") != input_fingerprint(manifest.dataset, ident):
+        return None  # an input file changed (or the record predates fingerprints)
     from .placements import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record):
         return None
@@ -138,14 +146,35 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
     return None
 
 
-def remove_partials(out_root: Path) -> int:
-    """Delete temporary files a killed run left (``.<name>.*.part``); returns how many."""
+def remove_partials(out_root: Path, idents: Iterable[ImageSetId] = ()) -> int:
+    """Delete the temporary files a killed run of this tool left: named by
+    :func:`fileio.write_bytes_atomic` (``.<name>.synthcompose-*.part``), in the output root
+    itself and in the folders of the image sets ``idents`` - nothing else (another program's
+    ``.part`` files, a batch writing to a folder nested in this root). Returns how many."""
+    folders = {Path(out_root)}
+    for ident in idents:
+        folders.update(p.parent for p in output_paths(out_root, ident))
     n = 0
-    if out_root.is_dir():
-        for p in out_root.rglob(".*.part"):
-            p.unlink(missing_ok=True)
-            n += 1
+    for folder in sorted(folders):
+        if not folder.is_dir():
+            continue
+        for p in folder.glob(f".*.{PART_TAG}*.part"):
+            if p.is_file() and not p.is_symlink():
+                p.unlink(missing_ok=True)
+                n += 1
     return n
+
+
+def refuse_overlap(manifest: Manifest) -> None:
+    """Refuse an output root that is the dataset root (or a link to it), or lies inside one of
+    its input folders: the outputs keep the inputs' layout, so they would overwrite the photos,
+    labels and disparity, or be read as inputs by the next batch."""
+    out, data = Path(manifest.output).resolve(), Path(manifest.dataset).resolve()
+    inputs = [data / d for d in INPUT_FOLDERS]
+    if out == data or any(out == d or d in out.parents for d in inputs):
+        raise ManifestError(manifest.path, f"field 'output': {manifest.output} is the dataset's own folder "
+                                           f"({manifest.dataset}); the outputs would overwrite the inputs - "
+                                           "give another output root")
 
 
 def preflight(manifest: Manifest) -> None:
@@ -400,13 +429,15 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
     t0 = time.perf_counter()
     engine = "ray" if use_ray else ("local" if workers <= 1 else "process")
     summary = Summary(workers=max(workers, 1), engine=engine)
+    refuse_overlap(manifest)  # inputs are never written, whatever the manifest says
     with OutputLock(manifest.output):
-        stale = remove_partials(manifest.output)
-        if stale:
-            log.info("removed %d partial files left by an interrupted run", stale)
         preflight(manifest)
         ids, weights, summary.class_counts = select(manifest)
+        stale = remove_partials(manifest.output, ids)
+        if stale:
+            log.info("removed %d partial files left by an interrupted run", stale)
         todo = []
+        by_key = {ident.key: ident for ident in ids}
         for ident in ids:
             earlier = completed(manifest, ident) if resume else None
             if earlier is not None:
@@ -430,6 +461,8 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
                 on_outcome(outcome)
             if outcome.status != "done":
                 log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
+                if not outcome.resumed:  # nothing of it outlives its record: this run's, or none
+                    discard_outputs(manifest.output, by_key[outcome.key], keep_record=outcome.status == "skipped")
             if show_bar:
                 bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
             else:
@@ -438,7 +471,11 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
         bar.close()
         summary.outcomes.sort(key=lambda o: o.key)
         from .annotations import write_coco  # annotations: COCO instances of every done record
-        write_coco(manifest.output)
+        try:
+            write_coco(manifest.output)
+        except SynthComposeError as exc:  # the summary is written whatever the COCO file meets
+            log.error("%s", exc)
+            summary.notes.append(str(exc))
         summary.wall_s = time.perf_counter() - t0
         write_json(manifest.output / "summary.json", summary.to_dict())
     return summary

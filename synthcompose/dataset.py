@@ -139,6 +139,23 @@ class ImageSet:
 MAX_DISPARITY_WIDTH_SHARE = 0.5
 
 
+#: the input files whose change makes a completed image set stale
+INPUT_KINDS = ("rgb", "labelIds", "instanceIds", "disparity", "camera")
+
+
+def input_fingerprint(root: Path, ident: ImageSetId) -> dict[str, list[int] | None]:
+    """(size, modification time in ns) of each input file of an image set (None when absent):
+    recorded with its outputs, so that a resumed batch redoes a set whose inputs changed."""
+    out: dict[str, list[int] | None] = {}
+    for kind in INPUT_KINDS:
+        try:
+            st = ident.path(root, kind).stat()
+            out[kind] = [int(st.st_size), int(st.st_mtime_ns)]
+        except OSError:
+            out[kind] = None
+    return out
+
+
 def check_disparity(path: Path, disparity: np.ndarray, width: int) -> None:
     """Refuse disparity maps that cannot be real: no valid pixel, or impossible values."""
     valid = disparity > 1

@@ -88,17 +88,37 @@ def encode_png(img: np.ndarray) -> bytes:
     return buf.tobytes()
 
 
+#: temporary files are named ``.<name>.<PART_TAG><random>.part``: the clean-up of a killed run
+#: removes these and nothing else (other programs' ``.part`` files are theirs)
+PART_TAG = "synthcompose-"
+
+
+def _file_mode() -> int:
+    """The mode a new file gets from the process's umask (0666 less it), as open() would give;
+    mkstemp's own 0600 would leave every output unreadable to the job's other users."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+_FILE_MODE = _file_mode()  # read once, at import (os.umask is process-wide: not from threads)
+
+
 def write_bytes_atomic(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that ``path`` never holds a partial file."""
+    """Write ``data`` to ``path`` so that ``path`` never holds a partial file: a temporary file
+    beside it, synced to disk, then renamed over it; mode as the umask gives."""
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{PART_TAG}", suffix=".part", dir=path.parent)
     except OSError as exc:
         raise OutputError(path, f"cannot be written ({exc.strerror or exc})") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
+            fh.flush()
+            os.fchmod(fh.fileno(), _FILE_MODE)
+            os.fsync(fh.fileno())  # the data is on disk before the name says the file is complete
         os.replace(tmp, path)
     except BaseException as exc:
         try:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -137,17 +137,24 @@ class Manifest:
     camera_match: bool = True  # give the inserted objects the photo's blur and noise
     # --- end lighting modes
     shading: str = "auto"  # render.py: "pixel", "sample", or "auto" (by the GL device)
+    _hash: list = field(default_factory=list, init=False, compare=False, repr=False)  # config_hash, once computed
 
     @property
     def config_hash(self) -> str:
         """sha256 of what decides the outputs (the manifest less its output root and limit, the
-        tool's version): a resumed batch keeps an image set's outputs only when its record
-        carries the same."""
+        model files' contents, the tool's version): a resumed batch keeps an image set's outputs
+        only when its record carries the same. Computed once per manifest."""
         from . import __version__
 
+        from .models import model_digest
+
+        if self._hash:
+            return self._hash[0]
         deciding = {k: v for k, v in self.raw.items() if k not in ("output", "limit")}
-        text = json.dumps({"manifest": deciding, "version": __version__}, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()
+        models = {o.model: model_digest(o.model) for o in self.objects}  # a changed model file: redo
+        text = json.dumps({"manifest": deciding, "models": models, "version": __version__}, sort_keys=True)
+        self._hash.append(hashlib.sha256(text.encode()).hexdigest())
+        return self._hash[0]
 
 
 def _where(err: jsonschema.ValidationError) -> str:

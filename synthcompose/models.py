@@ -409,6 +409,34 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
     return Model(key, tuple(out), tuple(float(e * scale) for e in ext))
 
 
+def model_digest(path: str) -> str:
+    """sha256 of a model file and, for a .gltf, of the buffers and images it names by relative
+    URI: what decides how it renders (a batch that resumes redoes the image sets when it
+    changes). Built-in models: their name."""
+    import hashlib
+
+    if path.startswith(BUILTIN_PREFIX):
+        return path
+    h = hashlib.sha256()
+    p = Path(path)
+    files = [p]
+    if p.suffix.lower() == ".gltf":
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+            for entry in (doc.get("buffers") or []) + (doc.get("images") or []):
+                uri = entry.get("uri") if isinstance(entry, dict) else None
+                if isinstance(uri, str) and uri and not uri.startswith("data:"):
+                    files.append(p.parent / uri)
+        except (OSError, ValueError, AttributeError):
+            pass  # load_model names what is wrong with the file
+    for f in files:
+        try:
+            h.update(f.read_bytes())
+        except OSError:
+            h.update(b"missing:" + str(f).encode())
+    return h.hexdigest()
+
+
 @functools.lru_cache(maxsize=32)
 def load_model(path: str, size_key: tuple[tuple[str, float], ...], up: str = "+y", forward: str = "+x") -> Model:
     """Load a model file or a builtin, at real size; cached per process.

@@ -28,7 +28,7 @@ from .annotations import amodal_boxes, annotate_objects, write_frame_annotations
 from .colour import srgb_to_linear
 from .camera import Camera
 from .compose import Composed, Composer, SceneLayers
-from .dataset import ImageSet, ImageSetId, read_image_set
+from .dataset import ImageSet, ImageSetId, input_fingerprint, read_image_set
 from .errors import InputError, SynthComposeError
 from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, occluder_depth
@@ -365,6 +365,7 @@ class Pipeline:
             "seed": m.seed,
             "source": {k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity",
                                                                    "camera")},
+            "source_fingerprint": input_fingerprint(m.dataset, ident),  # resume: a changed input is redone
             "labels": "gtFine" if image_set.labelled else prep.surfaces.to_dict(),
             "stereo_noise": noise.to_dict(),
             "lighting": fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"

@@ -37,6 +37,32 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
     return written
 
 
+#: the kinds of file written per image set (dataset.ImageSetId.path), the record last
+WRITTEN_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "polygons", "record")
+
+
+def output_paths(out_root: Path, ident: ImageSetId) -> list[Path]:
+    """Every file this tool may write for one image set under ``out_root`` (the record last)."""
+    from .annotations import bbox3d_path
+
+    paths = [ident.path(out_root, kind) for kind in WRITTEN_KINDS]
+    return paths[:-1] + [bbox3d_path(out_root, ident), paths[-1]]
+
+
+def discard_outputs(out_root: Path, ident: ImageSetId, keep_record: bool = False) -> int:
+    """Remove one image set's outputs (a failed or skipped set must not leave files of this or
+    an earlier run that no record of this run describes); the record stays with
+    ``keep_record`` (a skipped set's record says why). Returns how many files were removed."""
+    n = 0
+    for path in output_paths(out_root, ident)[: -1 if keep_record else None]:
+        try:
+            path.unlink()
+            n += 1
+        except FileNotFoundError:
+            pass
+    return n
+
+
 def write_record(out_root: Path, ident: ImageSetId, record: dict[str, Any]) -> Path:
     path = ident.path(out_root, "record")
     write_json(path, record)

@@ -63,7 +63,7 @@ def test_resume_redoes_only_what_is_missing(data, tmp_path):
     first = {k: os.stat(ids[0].path(out, k)).st_mtime_ns for k in OUT_KINDS}
     ids[2].path(out, "record").unlink()  # as if killed before its record was written
     ids[2].path(out, "rgb").unlink()
-    (ids[1].path(out, "rgb").parent / ".stale_leftImg8bit.png.abc.part").write_bytes(b"partial")
+    (ids[1].path(out, "rgb").parent / ".stale_leftImg8bit.png.synthcompose-abc.part").write_bytes(b"partial")
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["resumed"] == len(ids) - 1 and summary["done"] == len(ids)

@@ -1,0 +1,135 @@
+"""Outputs a training job can trust (issue: never touch inputs, clean only what the tool wrote,
+no output outliving its record, resume that notices changed inputs and models, a damaged
+record that does not stop the batch, files other users can read)."""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import stat
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from synthcompose.cli import main
+from synthcompose.dataset import find_image_sets
+from synthcompose.fileio import write_bytes_atomic
+from synthcompose.synthetic import make_sample
+from synthcompose.writer import output_paths
+
+from .test_batch import ASSETS, write_manifest
+
+W, H = 320, 160
+
+
+@pytest.fixture()
+def data(tmp_path):
+    root = tmp_path / "cs"
+    ids = make_sample(root, count=2, width=W, height=H, seed=4)
+    return root, ids
+
+
+def _digest(root: Path) -> dict[str, str]:
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("how", ["same", "link", "inside"])
+def test_an_output_root_on_the_inputs_is_refused_and_nothing_is_touched(data, tmp_path, capsys, how):
+    root, _ = data
+    before = _digest(root)
+    out = {"same": root, "inside": root / "leftImg8bit" / "out"}.get(how)
+    if how == "link":
+        out = tmp_path / "alias"
+        out.symlink_to(root)
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--no-progress"]) == 2
+    assert "would overwrite the inputs" in capsys.readouterr().err
+    assert _digest(root) == before
+
+
+def test_clean_up_removes_only_its_own_partial_files(data, tmp_path):
+    root, ids = data
+    out = tmp_path / "out"
+    folder = ids[0].path(out, "rgb").parent
+    folder.mkdir(parents=True)
+    ours = folder / f".x_leftImg8bit.png.synthcompose-abc.part"
+    theirs = folder / ".download.part"  # another program's
+    nested = out / "nested" / "leftImg8bit" / ".y.png.synthcompose-def.part"  # a batch writing in a sub-root
+    nested.parent.mkdir(parents=True)
+    for p in (ours, theirs, nested):
+        p.write_bytes(b"partial")
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--no-progress"]) == 0
+    assert not ours.exists() and theirs.exists() and nested.exists()
+
+
+def test_a_failed_or_skipped_set_leaves_no_outputs_of_an_earlier_run(data, tmp_path):
+    root, ids = data
+    out = tmp_path / "out"
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--no-progress"]) == 0
+    assert all(p.exists() for p in output_paths(out, ids[0])[:5])
+    # another seed, and one input broken: that set fails; its earlier files must not stay
+    ids[0].path(root, "disparity").write_bytes(b"not a png")
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out, seed=77)), "--no-progress"]) == 1
+    assert not any(p.exists() for p in output_paths(out, ids[0]))
+    # nothing can be placed any more: the set is skipped, its record says so, no images stay
+    assert main(["batch", str(write_manifest(tmp_path / "m2.json", root, out, seed=78,
+                                             placement={"distance": [300, 301]})), "--no-progress"]) in (0, 1)
+    paths = output_paths(out, ids[1])
+    assert not any(p.exists() for p in paths[:-1])
+    assert json.loads(paths[-1].read_text())["status"] == "no valid placement"
+
+
+def test_resume_redoes_a_set_whose_input_or_model_changed(data, tmp_path):
+    root, ids = data
+    out = tmp_path / "out"
+    model = tmp_path / "car"
+    shutil.copytree(ASSETS / "openmaterial_car", model)
+    manifest = write_manifest(tmp_path / "m.json", root, out)
+    spec = json.loads(manifest.read_text())
+    spec["objects"][0]["model"] = str(model / "vehicle_example.gltf")
+    manifest.write_text(json.dumps(spec))
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["resumed"] == len(ids)
+    # a new photo for one set (same size): that set is redone, the other kept
+    rgb = cv2.imread(str(ids[0].path(root, "rgb")))
+    cv2.imwrite(str(ids[0].path(root, "rgb")), 255 - rgb)
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["resumed"] == len(ids) - 1
+    # the model's buffer changes: everything is redone
+    buf = model / "vehicle_example.bin"
+    data = bytearray(buf.read_bytes())
+    data[8] ^= 0x01  # the lowest bits of a float of the first accessor: a changed model, still valid
+    buf.write_bytes(bytes(data))
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["resumed"] == 0
+
+
+def test_a_malformed_record_does_not_stop_the_batch(data, tmp_path):
+    root, ids = data
+    out = tmp_path / "out"
+    manifest = write_manifest(tmp_path / "m.json", root, out)
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    stray = out / "synthcompose" / "train" / "elsewhere" / "elsewhere_000000_000000_synthcompose.json"
+    stray.parent.mkdir(parents=True)
+    stray.write_text(json.dumps({"status": "done", "image": "no", "objects": [{"mask_rle": 1}]}))
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["done"] == len(ids)
+    coco = json.loads((out / "coco_instances.json").read_text())
+    assert len(coco["images"]) == len(ids)
+
+
+def test_files_get_the_umasks_mode_and_are_complete(tmp_path):
+    old = os.umask(0o022)
+    try:
+        path = tmp_path / "a" / "f.bin"
+        write_bytes_atomic(path, b"x" * 1000)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+    assert path.read_bytes() == b"x" * 1000
+    assert not list(path.parent.glob("*.part"))
