@@ -1,4 +1,6 @@
-"""Command line: ``synthcompose batch MANIFEST`` and ``synthcompose make-sample OUT``."""
+"""synthcompose: insert 3D objects into Cityscapes image sets with differential rendering and write
+new, fully annotated image sets. Commands: batch, make-sample, compare-lighting, preview,
+check-placement, report (``synthcompose COMMAND -h`` for each)."""
 from __future__ import annotations
 
 import argparse
@@ -18,7 +20,7 @@ def _batch(args: argparse.Namespace) -> int:
     manifest = load_manifest(args.manifest)
     if args.output:
         manifest = replace(manifest, output=Path(args.output).resolve())
-    if args.limit:
+    if args.limit is not None:
         manifest = replace(manifest, limit=args.limit)
     progress = None if not args.no_progress else False
     use_ray = args.ray is not None
@@ -40,8 +42,18 @@ def _make_sample(args: argparse.Namespace) -> int:
     return 0
 
 
+def _finished_batch(out: str) -> Path:
+    """The output root of a finished batch, or an error naming it (never created here)."""
+    root = Path(out)
+    if not root.is_dir():
+        raise SynthComposeError(f"{root}: no such output root (give the output folder of a finished batch)")
+    return root
+
+
 def _check_placement(args: argparse.Namespace) -> int:
     from .check import check_output, format_table
+
+    _finished_batch(args.out)
 
     results = check_output(Path(args.out))
     print(format_table(results))
@@ -52,6 +64,7 @@ def _check_placement(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from .report import write_report
 
+    _finished_batch(args.out)
     print(f"written: {write_report(Path(args.out))}")
     return 0
 
@@ -90,27 +103,48 @@ def _preview(args: argparse.Namespace) -> int:
 # --- end preview
 
 
+def _count(minimum: int):
+    """argparse type: an integer of at least ``minimum`` (a clear refusal otherwise)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{value} is below {minimum}")
+        return value
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="synthcompose", description=__doc__)
-    parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    from . import __version__
+
+    common = argparse.ArgumentParser(add_help=False)  # -v before or after the command
+    common.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="debug logging")
+    parser = argparse.ArgumentParser(prog="synthcompose", description=__doc__, parents=[common])
+    parser.add_argument("--version", action="version", version=f"synthcompose {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    b = sub.add_parser("batch", help="augment every image set a manifest selects")
+
+    def command(name: str, **kw) -> argparse.ArgumentParser:
+        return sub.add_parser(name, parents=[common], **kw)
+
+    b = command("batch", help="augment every image set a manifest selects")
     b.add_argument("manifest", help="manifest JSON (see README)")
     b.add_argument("--output", help="override the manifest's output root")
-    b.add_argument("--limit", type=int, help="process at most this many image sets")
+    b.add_argument("--limit", type=_count(1), help="process at most this many image sets (1 or more)")
     b.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
-    b.add_argument("--workers", type=int, default=1,
+    b.add_argument("--workers", type=_count(0), default=1,
                    help="worker processes, each with its own GL context (with --ray: actors; 0 = one per CPU)")
-    b.add_argument("--gpus", type=int, default=0, help="spread local workers over this many GPUs (EGL devices)")
+    b.add_argument("--gpus", type=_count(0), default=0, help="spread local workers over this many GPUs (EGL devices)")
     b.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run as Ray actors: on a local Ray instance, or the cluster at ADDRESS "
                         "(needs pip install 'synthcompose[ray]')")
     b.add_argument("--ray-gpus", type=float, default=0.0, help="GPUs per Ray actor (default 0)")
     b.add_argument("--no-resume", action="store_true", help="redo image sets an earlier run completed")
     b.set_defaults(func=_batch)
-    s = sub.add_parser("make-sample", help="generate synthetic image sets in Cityscapes format")
+    s = command("make-sample", help="generate synthetic image sets in Cityscapes format")
     s.add_argument("out", help="Cityscapes root to write")
-    s.add_argument("--count", type=int, default=3)
+    s.add_argument("--count", type=_count(1), default=3)
     s.add_argument("--size", default="2048x1024", help="WIDTHxHEIGHT")
     s.add_argument("--seed", type=int, default=0)
     s.add_argument("--stereo", choices=("realistic", "exact"), default="realistic",
@@ -118,23 +152,23 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--photo", choices=("realistic", "clean"), default="realistic",
                    help="the photo as Cityscapes' camera records it (default) or the clean shading")
     s.set_defaults(func=_make_sample)
-    cl = sub.add_parser("compare-lighting", help="side by side: fixed light | estimated light, input | output")
+    cl = command("compare-lighting", help="side by side: fixed light | estimated light, input | output")
     cl.add_argument("manifest", help="manifest JSON (see README)")
     cl.add_argument("out", help="folder for the comparison PNGs (and both full outputs)")
-    cl.add_argument("--limit", type=int, help="at most this many image sets")
+    cl.add_argument("--limit", type=_count(1), help="at most this many image sets (1 or more)")
     cl.set_defaults(func=_compare_lighting)
-    pv = sub.add_parser("preview", help="a window to debug placement (needs pip install 'synthcompose[preview]')")
+    pv = command("preview", help="a window to debug placement (needs pip install 'synthcompose[preview]')")
     pv.add_argument("manifest", help="manifest JSON (see README)")
     pv.add_argument("--frame", help="start at this image set (city_seq_frame)")
     pv.add_argument("--export-ply", metavar="FILE", help="write the frame's point cloud and object boxes as PLY "
                                                           "and exit (headless, no window)")
     pv.add_argument("--colour", choices=("rgb", "label"), default="rgb", help="point colours in the PLY")
     pv.set_defaults(func=_preview)
-    c = sub.add_parser("check-placement", help="measure the placements of a finished batch")
+    c = command("check-placement", help="measure the placements of a finished batch")
     c.add_argument("out", help="output root of a batch")
     c.add_argument("--strict", action="store_true", help="exit 1 when any object is outside the limits")
     c.set_defaults(func=_check_placement)
-    r = sub.add_parser("report", help="write a static HTML page about a finished batch")
+    r = command("report", help="write a static HTML page about a finished batch")
     r.add_argument("out", help="output root of a batch")
     r.set_defaults(func=_report)
     return parser
@@ -142,13 +176,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+    logging.basicConfig(level=logging.DEBUG if getattr(args, "verbose", False) else logging.INFO,
                         format="%(levelname)s %(message)s", stream=sys.stderr)
     try:
         return args.func(args)
     except SynthComposeError as exc:
         print(f"synthcompose: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback; a rerun resumes
+        print("synthcompose: interrupted (a rerun resumes where this one stopped)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

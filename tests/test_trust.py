@@ -133,3 +133,42 @@ def test_files_get_the_umasks_mode_and_are_complete(tmp_path):
     assert stat.S_IMODE(path.stat().st_mode) == 0o644
     assert path.read_bytes() == b"x" * 1000
     assert not list(path.parent.glob("*.part"))
+
+
+# ------------------------------------------------------------------ clear refusals on the command line
+@pytest.mark.parametrize("argv, says", [
+    (["batch", "m.json", "--limit", "0"], "--limit: 0 is below 1"),
+    (["batch", "m.json", "--limit", "-1"], "--limit: -1 is below 1"),
+    (["batch", "m.json", "--workers", "-3"], "--workers: -3 is below 0"),
+    (["make-sample", "x", "--count", "two"], "--count: 'two' is not an integer"),
+])
+def test_numbers_the_code_cannot_use_are_refused(argv, says, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2 and says in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["report", "check-placement"])
+def test_report_and_check_on_a_missing_folder_refuse_and_create_nothing(command, tmp_path, capsys):
+    missing = tmp_path / "nowhere"
+    assert main([command, str(missing)]) == 2
+    assert "no such output root" in capsys.readouterr().err and not missing.exists()
+
+
+def test_version_and_verbose_after_the_command(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith("synthcompose ")
+    assert main(["make-sample", str(tmp_path / "s"), "--count", "1", "--size", "64x32", "-v"]) == 0
+
+
+def test_ctrl_c_is_one_line_without_a_traceback(monkeypatch, capsys):
+    import synthcompose.synthetic as synthetic
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(synthetic, "make_sample", interrupted)
+    assert main(["make-sample", "x", "--count", "1"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Traceback" not in err
