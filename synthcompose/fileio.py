@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import os
+import stat
+import struct
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -42,6 +44,41 @@ def map_threads(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
         return list(pool.map(fn, items))
 
 
+#: input files larger than this are refused before they are read (bytes); a 2048x1024 16-bit
+#: PNG is a few MB, a camera JSON a few hundred bytes
+MAX_INPUT_BYTES = 256 << 20
+#: PNGs whose header declares more pixels than this are refused before they are decoded (a
+#: decompression bomb: a few KB that decode to gigabytes)
+MAX_PIXELS = 64 << 20
+
+
+def read_input_bytes(path: str | Path, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of an input file: a regular file (a named pipe would block, a device never
+    end) of at most ``limit`` bytes, or an :class:`InputError` naming it."""
+    path = Path(path)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise InputError(path, "file is missing") from None
+    except OSError as exc:
+        raise InputError(path, f"cannot be read ({exc.strerror or exc})") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(path, "is not a regular file (a pipe, device or folder cannot be an input)")
+        if st.st_size > limit:
+            raise InputError(path, f"is {st.st_size} bytes, more than the {limit} an input may have")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise InputError(path, f"cannot be read ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)
+    if len(data) > limit:
+        raise InputError(path, f"is more than the {limit} bytes an input may have")
+    return data
+
+
 def read_png(path: str | Path, kind: PngKind) -> np.ndarray:
     """Read a PNG and check its layout.
 
@@ -49,14 +86,13 @@ def read_png(path: str | Path, kind: PngKind) -> np.ndarray:
     ``(H, W) uint16`` for ``gray16``.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError(path, "file is missing") from None
-    except OSError as exc:
-        raise InputError(path, f"cannot be read ({exc.strerror})") from None
+    data = read_input_bytes(path)
     if not data.startswith(b"\x89PNG\r\n\x1a\n"):
         raise InputError(path, "is not a PNG file")
+    if len(data) >= 24 and data[12:16] == b"IHDR":  # the size, before decoding anything
+        width, height = struct.unpack(">II", data[16:24])
+        if width * height > MAX_PIXELS:
+            raise InputError(path, f"declares {width}x{height} pixels, more than the {MAX_PIXELS} an input may have")
     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if img is None:
         raise InputError(path, "PNG data is corrupt or truncated")
@@ -134,18 +170,23 @@ def write_png(path: str | Path, img: np.ndarray) -> None:
     write_bytes_atomic(path, encode_png(img))
 
 
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
 def read_json(path: str | Path) -> Any:
+    """A JSON input file (a regular file of at most 16 MB; NaN and Infinity refused)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(path, "file is missing") from None
-    except (OSError, UnicodeDecodeError) as exc:
+        text = read_input_bytes(path, 16 << 20).decode("utf-8")
+    except UnicodeDecodeError as exc:
         raise InputError(path, f"cannot be read ({exc})") from None
     try:
-        return json.loads(text)
+        return json.loads(text, parse_constant=_no_constant)
     except json.JSONDecodeError as exc:
         raise InputError(path, f"is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    except ValueError as exc:  # NaN, Infinity
+        raise InputError(path, f"is not valid JSON ({exc})") from None
 
 
 def dumps_json(obj: Any) -> bytes:

@@ -30,6 +30,7 @@ from .camera import Camera
 from .compose import Composed, Composer, SceneLayers
 from .dataset import ImageSet, ImageSetId, input_fingerprint, read_image_set
 from .errors import InputError, SynthComposeError
+from .fileio import read_input_bytes
 from .frequency import object_weights
 from .geometry import Frame, disparity_to_depth, occluder_depth
 from .gl import GLContext
@@ -303,7 +304,7 @@ class Pipeline:
         m = self.manifest
         with _timed(timings, "read"):
             image_set = read_image_set(m.dataset, ident)
-            camera_json = ident.path(m.dataset, "camera").read_bytes()
+            camera_json = read_input_bytes(ident.path(m.dataset, "camera"), 1 << 20)
         with _timed(timings, "geometry"):
             cam = image_set.camera
             depth = disparity_to_depth(image_set.disparity, cam)

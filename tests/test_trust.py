@@ -172,3 +172,37 @@ def test_ctrl_c_is_one_line_without_a_traceback(monkeypatch, capsys):
     assert main(["make-sample", "x", "--count", "1"]) == 130
     err = capsys.readouterr().err
     assert "interrupted" in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------ inputs that are not regular files
+def test_pipes_devices_and_bombs_are_refused_before_reading(tmp_path, capsys):
+    root = tmp_path / "cs"
+    ids = make_sample(root, count=4, width=W, height=H, seed=6)
+    fifo = ids[0].path(root, "disparity")
+    fifo.unlink()
+    os.mkfifo(fifo)  # nobody writes: reading it would block forever
+    dev = ids[1].path(root, "camera")
+    dev.unlink()
+    dev.symlink_to("/dev/zero")  # reading it would never end
+    bomb = ids[2].path(root, "labelIds")  # a header declaring 100000 x 100000 pixels
+    data = bytearray(bomb.read_bytes())
+    data[16:24] = (100000).to_bytes(4, "big") * 2
+    bomb.write_bytes(bytes(data))
+    out = tmp_path / "out"
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--no-progress"]) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    reasons = {p["image_set"]: p["reason"] for p in summary["problems"]}
+    assert "is not a regular file" in reasons[ids[0].key] and str(fifo) in reasons[ids[0].key]
+    assert "is not a regular file" in reasons[ids[1].key]
+    assert "declares 100000x100000 pixels" in reasons[ids[2].key]
+    assert summary["done"] == 1
+
+
+def test_nan_and_infinity_in_json_are_refused(tmp_path):
+    from synthcompose.errors import InputError
+    from synthcompose.fileio import read_json
+
+    path = tmp_path / "c.json"
+    path.write_text('{"fx": NaN}')
+    with pytest.raises(InputError, match="NaN is not a number JSON allows"):
+        read_json(path)
