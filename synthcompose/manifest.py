@@ -20,7 +20,7 @@ from .placement import PlacementRules
 from .render import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
-_POS = {"type": "number", "exclusiveMinimum": 0}
+_POS = {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}  # metres: nothing larger is an object
 #: split and city names: one folder level, no path tricks ("..", "/")
 _NAME = {"type": "string", "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*$"}
 
@@ -37,7 +37,7 @@ SCHEMA: dict[str, Any] = {
         "frames": {"type": "array", "items": {"type": "string", "pattern": r"^[A-Za-z0-9-]+_\d+_\d+$"},
                    "uniqueItems": True},
         "limit": {"type": "integer", "minimum": 1},
-        "seed": {"type": "integer", "minimum": 0},
+        "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
         "objects_per_image": {"type": "integer", "minimum": 1, "maximum": 15},
         "object_choice": {"enum": ["weights", "balance"]},
         "objects": {
@@ -53,7 +53,7 @@ SCHEMA: dict[str, Any] = {
                              "properties": {"length": _POS, "width": _POS, "height": _POS}},
                     "up": _AXIS,
                     "forward": _AXIS,
-                    "weight": _POS,
+                    "weight": {"type": "number", "exclusiveMinimum": 0, "maximum": 1e6},
                     "allowed_surfaces": {"type": "array", "items": {"type": "string"}, "minItems": 1},
                     "orientation": {"enum": ["along-road", "parked", "face-camera", "random"]},
                     "appearance": {"enum": ["varied", "model"]},
@@ -63,8 +63,9 @@ SCHEMA: dict[str, Any] = {
         "placement": {
             "type": "object", "additionalProperties": False,
             "properties": {
-                "distance": {"type": "array", "items": {"type": "number", "minimum": 0}, "minItems": 2, "maxItems": 2},
-                "max_attempts": {"type": "integer", "minimum": 1},
+                "distance": {"type": "array", "items": {"type": "number", "minimum": 0, "maximum": 10_000},
+                             "minItems": 2, "maxItems": 2},
+                "max_attempts": {"type": "integer", "minimum": 1, "maximum": 1_000_000},
                 "yaw_jitter_deg": {"type": "number", "minimum": 0},
                 "min_footprint_allowed": {"type": "number", "minimum": 0, "maximum": 1},
                 "clearance": {"type": "number", "minimum": 0},
@@ -161,6 +162,19 @@ def _where(err: jsonschema.ValidationError) -> str:
     return "/".join(str(p) for p in err.absolute_path) or "(top level)"
 
 
+def _whole_numbers(schema: dict, value: Any) -> Any:
+    """``value`` with every number the schema types "integer" made an int (JSON Schema counts
+    2.0 as an integer; Python's range() and NumPy's seeding do not)."""
+    if schema.get("type") == "integer" and isinstance(value, float):
+        return int(value)
+    if isinstance(value, dict):
+        props = schema.get("properties", {})
+        return {k: _whole_numbers(props.get(k, {}), v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_whole_numbers(schema.get("items", {}), v) for v in value]
+    return value
+
+
 def parse_manifest(data: Any, path: Path) -> Manifest:
     """Validate ``data`` (parsed JSON) and resolve it; raises :class:`ManifestError` naming the field."""
     path = Path(path)
@@ -169,6 +183,7 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
     if errors:
         msgs = "; ".join(f"field '{_where(e)}': {e.message}" for e in errors[:5])
         raise ManifestError(path, msgs)
+    data = _whole_numbers(SCHEMA, data)  # 2.0 where an integer is asked (JSON Schema accepts it) -> 2
     base = path.parent
     objects = []
     for i, o in enumerate(data["objects"]):

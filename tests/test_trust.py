@@ -206,3 +206,28 @@ def test_nan_and_infinity_in_json_are_refused(tmp_path):
     path.write_text('{"fx": NaN}')
     with pytest.raises(InputError, match="NaN is not a number JSON allows"):
         read_json(path)
+
+
+@pytest.mark.parametrize("field, value, says", [
+    ("objects_per_image", 2.0, None), ("seed", 5.0, None),
+    ("weight", 1e300, "field 'objects/0/weight'"), ("size", {"length": 1e9}, "field 'objects/0/size/length'"),
+])
+def test_numbers_the_schema_lets_through_are_made_usable_or_refused(data, tmp_path, field, value, says):
+    from synthcompose.errors import ManifestError
+    from synthcompose.manifest import load_manifest
+
+    root, ids = data
+    path = write_manifest(tmp_path / "m.json", root, tmp_path / "out")
+    spec = json.loads(path.read_text())
+    if field in ("weight", "size"):
+        spec["objects"][0][field] = value
+    else:
+        spec[field] = value
+    path.write_text(json.dumps(spec))
+    if says:
+        with pytest.raises(ManifestError, match=says):
+            load_manifest(path)
+        return
+    m = load_manifest(path)
+    assert isinstance(m.objects_per_image, int) and isinstance(m.seed, int)
+    assert main(["batch", str(path), "--no-progress"]) == 0
