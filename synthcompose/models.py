@@ -461,7 +461,8 @@ def load_model(path: str, size_key: tuple[tuple[str, float], ...], up: str = "+y
 
 
 # --------------------------------------------------------------------- builtins
-_ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
+#: the built-in models' files, shipped in the package (a wheel alone can draw them)
+_BUILTIN_FILES = Path(__file__).resolve().parent / "builtin"
 
 
 def _coloured(mesh, rgb_srgb, metallic=0.0, roughness=0.6, smooth=True) -> MeshPart:
@@ -478,7 +479,8 @@ def _coloured(mesh, rgb_srgb, metallic=0.0, roughness=0.6, smooth=True) -> MeshP
 def traffic_sign_parts(plate_height: float = 2.0, pole_radius: float = 0.035) -> list[MeshPart]:
     """A stop sign on a pole, built in code; the sign's face looks along +x.
 
-    The plate comes from ``assets/models/stop_sign`` (MIT, see its LICENSE); the pole is a
+    The plate comes from ``synthcompose/builtin/stop_sign_*.stl`` (MIT, see LICENSE-stop_sign
+    there; the source and full model stay in ``assets/models/stop_sign``); the pole is a
     cylinder. ``plate_height`` is the height of the plate's centre above the ground.
     """
     import trimesh
@@ -488,8 +490,8 @@ def traffic_sign_parts(plate_height: float = 2.0, pole_radius: float = 0.035) ->
     parts = [_coloured(pole, (0.55, 0.56, 0.57), metallic=0.8, roughness=0.4)]
     # plate files: octagon in their x/y plane, front towards +z, text upright along +y
     to_o = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], float)  # file z -> O x, x -> y, y -> z
-    red = trimesh.load(str(_ASSETS / "stop_sign" / "stop_sign_red.stl"), process=False)
-    white = trimesh.load(str(_ASSETS / "stop_sign" / "stop_sign_white.stl"), process=False)
+    red = trimesh.load(str(_BUILTIN_FILES / "stop_sign_red.stl"), process=False)
+    white = trimesh.load(str(_BUILTIN_FILES / "stop_sign_white.stl"), process=False)
     centre = red.bounds.mean(axis=0)
     for mesh, rgb in ((red, (0.70, 0.05, 0.06)), (white, (0.92, 0.92, 0.92))):
         m = mesh.copy()

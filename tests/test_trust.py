@@ -231,3 +231,43 @@ def test_numbers_the_schema_lets_through_are_made_usable_or_refused(data, tmp_pa
     m = load_manifest(path)
     assert isinstance(m.objects_per_image, int) and isinstance(m.seed, int)
     assert main(["batch", str(path), "--no-progress"]) == 0
+
+
+# ------------------------------------------------------------------ the wheel alone
+def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
+    """The wheel (no checkout: its shaders and built-in models inside it) in a fresh venv; the
+    third-party packages come from this environment (a .pth file), not the checkout."""
+    import subprocess
+    import sys
+    import sysconfig
+    import venv
+
+    repo = Path(__file__).resolve().parents[1]
+    wheels = tmp_path / "wheels"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                    str(wheels), str(repo)], check=True, cwd=tmp_path)
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(with_pip=False).create(env_dir)
+    py = env_dir / "bin" / "python"
+    site = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                               check=True, capture_output=True, text=True).stdout.strip())
+    (site / "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    wheel = next(wheels.glob("synthcompose-*.whl"))
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(site), str(wheel)],
+                   check=True, cwd=tmp_path)
+    where = subprocess.run([str(py), "-c", "import synthcompose; print(synthcompose.__file__)"], check=True,
+                           capture_output=True, text=True, cwd=tmp_path).stdout
+    assert str(site) in where  # the wheel's copy, not the checkout's
+    sample = tmp_path / "cityscapes"
+    subprocess.run([str(py), "-m", "synthcompose", "make-sample", str(sample), "--count", "1", "--size", "320x160"],
+                   check=True, cwd=tmp_path)
+    demo = json.loads((repo / "assets" / "demo" / "manifest.json").read_text())
+    for obj in demo["objects"]:
+        if not obj["model"].startswith("builtin:"):
+            obj["model"] = str((repo / "assets" / "demo" / obj["model"]).resolve())
+    demo.update(dataset=str(sample), output=str(tmp_path / "out"))
+    (tmp_path / "demo.json").write_text(json.dumps(demo))
+    run = subprocess.run([str(py), "-m", "synthcompose", "batch", str(tmp_path / "demo.json"), "--no-progress"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "1 done" in run.stdout
