@@ -15,6 +15,7 @@
 """
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import logging
 import multiprocessing as mp
@@ -416,6 +417,25 @@ class _RayWorker:
 
 
 # -------------------------------------------------------------------------------- the batch
+def _consume(stream: Iterable[Outcome], summary: Summary, bar, show_bar: bool, total: int, manifest: Manifest,
+             by_key: dict[str, ImageSetId], on_outcome: Callable[[Outcome], None] | None) -> None:
+    """Take the outcomes as they come: the summary, the progress, and a failed or skipped set's
+    leftovers removed."""
+    for i, outcome in enumerate(stream, start=1):
+        summary.outcomes.append(outcome)
+        bar.update(1)
+        if on_outcome:
+            on_outcome(outcome)
+        if outcome.status != "done":
+            log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
+            if not outcome.resumed:  # nothing of it outlives its record: this run's, or none
+                discard_outputs(manifest.output, by_key[outcome.key], keep_record=outcome.status == "skipped")
+        if show_bar:
+            bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
+        else:
+            log.info("[%d/%d] %s %s (%.2f s)", i, total, outcome.status, outcome.key, sum(outcome.timings.values()))
+
+
 def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None, ray_address: str | None = None,
               use_ray: bool = False, gpus: int = 0, gpus_per_actor: float = 0.0, resume: bool = True,
               on_outcome: Callable[[Outcome], None] | None = None) -> Summary:
@@ -425,6 +445,7 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
     workers over this many EGL devices; ``resume``: keep image sets a previous run completed.
     """
     from tqdm import tqdm
+    from tqdm.contrib.logging import logging_redirect_tqdm
 
     t0 = time.perf_counter()
     engine = "ray" if use_ray else ("local" if workers <= 1 else "process")
@@ -454,20 +475,10 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
             stream = _process_pool(manifest, weights, todo, workers, gpus)
         show_bar = sys.stderr.isatty() if progress is None else progress
         bar = tqdm(total=len(todo), unit="set", disable=not show_bar, dynamic_ncols=True)
-        for i, outcome in enumerate(stream, start=1):
-            summary.outcomes.append(outcome)
-            bar.update(1)
-            if on_outcome:
-                on_outcome(outcome)
-            if outcome.status != "done":
-                log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
-                if not outcome.resumed:  # nothing of it outlives its record: this run's, or none
-                    discard_outputs(manifest.output, by_key[outcome.key], keep_record=outcome.status == "skipped")
-            if show_bar:
-                bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
-            else:
-                log.info("[%d/%d] %s %s (%.2f s)", i, len(todo), outcome.status, outcome.key,
-                         sum(outcome.timings.values()))
+        # log lines go above the bar, not onto it
+        redirect = logging_redirect_tqdm() if show_bar else contextlib.nullcontext()
+        with redirect:
+            _consume(stream, summary, bar, show_bar, len(todo), manifest, by_key, on_outcome)
         bar.close()
         summary.outcomes.sort(key=lambda o: o.key)
         from .annotations import write_coco  # annotations: COCO instances of every done record
