@@ -1,0 +1,145 @@
+"""The GL side of the models: vertex layout, textures, a model uploaded once
+(:class:`_GpuModel`), and the matrices of the light views."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import moderngl
+import numpy as np
+
+from .gl import GLContext
+from .models import Model
+
+
+def _look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    f = target - eye
+    f = f / np.linalg.norm(f)
+    s = np.cross(f, up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def _ortho(half: float, near: float, far: float) -> np.ndarray:
+    m = np.eye(4)
+    m[0, 0] = m[1, 1] = 1.0 / half
+    m[2, 2] = -2.0 / (far - near)
+    m[2, 3] = -(far + near) / (far - near)
+    return m
+
+
+_BIAS = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+
+
+def _gl(m: np.ndarray) -> bytes:
+    """Row-major NumPy matrix -> column-major float32 bytes for a GLSL mat4 uniform."""
+    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
+
+
+#: the vertex buffer's attributes in order, with their float counts (models and the plane)
+VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_color", 4), ("in_material", 2))
+
+
+def _layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -> tuple:
+    """A vertex_array content entry for ``buffer`` holding ``attributes`` ((name, floats), in
+    order): the ones ``prog`` reads, the others skipped (a variant may not read them all)."""
+    parts, names = [], []
+    for name, floats in attributes:
+        if prog.get(name, None) is not None:
+            parts.append(f"{floats}f")
+            names.append(name)
+        else:
+            parts.append(f"{4 * floats}x")
+    return (buffer, " ".join(parts), *names)
+
+
+@dataclass(frozen=True)
+class _GpuMaps:
+    """The textures of one part: sRGB base colour and linear tangent-space normal map."""
+
+    base: moderngl.Texture | None
+    normal: moderngl.Texture | None = None
+    normal_scale: float = 1.0
+
+
+def _mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
+    """An RGBA8 texture of ``image`` (H, W, 4) uint8, repeating, trilinear."""
+    tex = gl.texture((image.shape[1], image.shape[0]), 4, image, filter_linear=True)
+    tex.build_mipmaps()
+    tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = True
+    return tex
+
+
+class _GpuModel:
+    """One model on the GPU: all its parts in one vertex and one index buffer, a vertex array
+    for each program that draws it.
+
+    The passes that need no per-part state (shadow maps, ids, the sample fill) draw the whole
+    model at once; the lit pass draws :attr:`ranges`, one per run of consecutive parts with
+    the same maps (textures): parts without maps run together, in the file's order, so the
+    pixels are those of a draw per part, with a handful of draws instead of one per part (4
+    instead of 69 for the bundled car). Tangents (``in_tangent``, for normal maps) get a
+    buffer of their own, zeros for parts without a map, only when some part has one.
+    """
+
+    def __init__(self, gl: GLContext, model: Model, programs: dict[str, moderngl.Program]) -> None:
+        datas, indices, tangents, maps_of = [], [], [], []
+        first = 0
+        has_tangents = any(p.normal_texture is not None and p.tangents is not None for p in model.parts)
+        for part in model.parts:
+            datas.append(np.concatenate([part.positions, part.normals, part.uvs, part.colors, part.material],
+                                        axis=1).astype(np.float32))
+            indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
+            first += len(part.positions)
+            maps = _GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
+            if part.normal_texture is not None and part.tangents is not None:
+                maps = replace(maps, normal=_mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
+            if has_tangents:
+                tangents.append(np.zeros((len(part.positions), 4), np.float32) if maps.normal is None
+                                else np.asarray(part.tangents, np.float32))
+            maps_of.append(maps)
+        self._gl = gl
+        self._vbo = gl.own(gl.ctx.buffer(np.concatenate(datas).tobytes()))
+        self._ibo = gl.own(gl.ctx.buffer(np.concatenate(indices).tobytes()))
+        self._tbo = gl.own(gl.ctx.buffer(np.concatenate(tangents).tobytes())) if has_tangents else None
+        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+        self._programs = programs
+        #: (first index, index count, maps) of each lit draw
+        self.ranges: list[tuple[int, int, _GpuMaps]] = []
+        start = 0
+        for idx, maps in zip(indices, maps_of):
+            plain = maps.base is None and maps.normal is None
+            if self.ranges and plain and self.ranges[-1][2] == maps:
+                f, n, _ = self.ranges[-1]
+                self.ranges[-1] = (f, n + len(idx), maps)
+            else:
+                self.ranges.append((start, len(idx), maps))
+            start += len(idx)
+
+    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        """The vertex array of this model for ``prog`` (made on first use)."""
+        if prog not in self._vaos:
+            fmt = [_layout(prog, self._vbo, VERTEX_LAYOUT)]
+            if self._tbo is not None and prog.get("in_tangent", None) is not None:
+                fmt.append(_layout(prog, self._tbo, (("in_tangent", 4),)))
+            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
+                                                                      index_element_size=4))
+        return self._vaos[prog]
+
+    def draw(self, name: str) -> None:
+        """The whole model with the renderer's program ``name`` (its uniforms set)."""
+        self.vao(self._programs[name]).render(moderngl.TRIANGLES)
+
+
+def _set_recolour(prog: moderngl.Program, recolour) -> None:
+    """lit.glsl's recolour uniforms for one object (its paint or clothes)."""
+    keys, rgbs = np.zeros((3, 4), np.float32), np.zeros((3, 3), np.float32)
+    for i, (key, rgb) in enumerate(recolour[:3]):
+        keys[i], rgbs[i] = key, rgb
+    prog["u_recolour_n"].value = min(len(recolour), 3)
+    prog["u_recolour_key"].write(keys.tobytes())
+    prog["u_recolour_rgb"].write(rgbs.tobytes())

@@ -1,0 +1,133 @@
+"""What a render takes and gives, without the GL side: the screen rectangle (:class:`Roi`), the
+light (:class:`Lighting`), the objects to draw (:class:`RenderObject`), the passes a render
+leaves (:class:`RenderPasses`) and the rectangle objects cover (:func:`roi_for`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Sequence
+
+import moderngl
+import numpy as np
+
+from .camera import Camera
+from .gl import GLContext
+from .models import Model
+
+NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
+
+
+@dataclass(frozen=True)
+class Roi:
+    """Screen rectangle in pixels: columns x0..x0+width-1, rows y0..y0+height-1."""
+
+    x0: int
+    y0: int
+    width: int
+    height: int
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """(rows, columns) slices of a full-frame array."""
+        return slice(self.y0, self.y0 + self.height), slice(self.x0, self.x0 + self.width)
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Light in the frame's vehicle coordinates, linear RGB, scaled so that an up-facing,
+    unshadowed surface receives ``sky_rgb + sun_rgb * sun_direction.z`` (1.0 by default)."""
+
+    sun_direction: tuple[float, float, float]
+    sun_rgb: tuple[float, float, float]
+    sky_rgb: tuple[float, float, float]
+    ground_rgb: tuple[float, float, float]
+
+    @classmethod
+    def daylight(cls, elevation_deg: float = 50.0, azimuth_deg: float = 135.0,
+                 sun_fraction: float = 0.35) -> "Lighting":
+        """Overcast-leaning daylight; ``sun_fraction`` of up-facing light comes from the sun."""
+        el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+        d = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
+        sun = sun_fraction / max(d[2], 0.05)
+        sky = 1.0 - sun_fraction
+        return cls(d, (sun,) * 3, (sky,) * 3, (0.25 * sky,) * 3)
+
+    def to_dict(self) -> dict:
+        return {k: list(getattr(self, k)) for k in ("sun_direction", "sun_rgb", "sky_rgb", "ground_rgb")}
+
+
+@dataclass(frozen=True, eq=False)
+class RenderObject:
+    """One object to draw: its model, pose and the local ground plane under it."""
+
+    model: Model
+    vehicle_from_object: np.ndarray  # (4, 4)
+    plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
+    plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
+    recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
+
+    def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
+        """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
+        the margin, and as far as the sun can throw the object's shadow (at most 4 m)."""
+        l, w, h = self.model.extents
+        el_sin = max(lighting.sun_direction[2], 0.05)
+        reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, 4.0)
+        return l / 2 + self.plane_margin + reach, w / 2 + self.plane_margin + reach
+
+    def plane_matrix(self, lighting: "Lighting") -> np.ndarray:
+        """(4, 4) vehicle <- unit square [-1, 1]^2 at z = 0: the pose of the ground plane."""
+        hx, hy = self.plane_half(lighting)
+        return self.vehicle_from_object @ np.diag([hx, hy, 1.0, 1.0])
+
+    def corners(self, lighting: "Lighting") -> np.ndarray:
+        """(16, 3) vehicle-frame corners of the object's box and of its plane."""
+        l, w, h = self.model.extents
+        box = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
+        hx, hy = self.plane_half(lighting)
+        plane = np.array([[sx * hx, sy * hy, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
+        pts = np.concatenate([box, plane, plane + [0, 0, 0.01]])
+        m = self.vehicle_from_object
+        return pts @ m[:3, :3].T + m[:3, 3]
+
+
+@dataclass(frozen=True, eq=False)
+class RenderPasses:
+    """GL textures of one render (ROI-sized), owned by the renderer's GLContext."""
+
+    roi: Roi
+    camera: Camera  # cropped to the ROI
+    textures: dict[str, moderngl.Texture] = field(repr=False)
+    gl: GLContext = field(repr=False)
+
+    def read(self, name: str) -> np.ndarray:
+        """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id``."""
+        self.gl.activate().wait()
+        tex = self.textures[name]
+        dtype = np.uint32 if tex.dtype == "u4" else np.float32
+        arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
+        return arr[..., 0] if tex.components == 1 else arr
+
+
+def crop_camera(camera: Camera, roi: Roi) -> Camera:
+    """The camera of a sub-image: same pose, principal point shifted, size of the ROI."""
+    return replace(camera, u0=camera.u0 - roi.x0, v0=camera.v0 - roi.y0, width=roi.width, height=roi.height)
+
+
+def roi_for(camera: Camera, objects: Sequence[RenderObject], lighting: Lighting, margin: int = 4) -> Roi | None:
+    """Screen rectangle holding every object and plane, or None when nothing is on screen."""
+    pts = np.concatenate([o.corners(lighting) for o in objects])
+    optical = pts @ camera.optical_from_vehicle[:3, :3].T + camera.optical_from_vehicle[:3, 3]
+    if (optical[:, 2] <= NEAR).any():
+        x0, y0, x1, y1 = 0, 0, camera.width, camera.height
+    else:
+        uv = camera.project(optical)
+        x0 = int(math.floor(uv[:, 0].min())) - margin
+        y0 = int(math.floor(uv[:, 1].min())) - margin
+        x1 = int(math.ceil(uv[:, 0].max())) + margin + 1
+        y1 = int(math.ceil(uv[:, 1].max())) + margin + 1
+    x0, y0 = max(x0, 0), max(y0, 0)
+    x1, y1 = min(x1, camera.width), min(y1, camera.height)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    return Roi(x0, y0, x1 - x0, y1 - y0)
