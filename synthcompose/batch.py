@@ -18,9 +18,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import logging
-import multiprocessing as mp
 import os
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -35,7 +33,8 @@ from .fileio import PART_TAG, read_json, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .pipeline import STAGES, Outcome, Pipeline
+from .engines import FAULT_CRASH_ENV, BatchError, _in_process, _process_pool, _ray_engine
+from .pipeline import STAGES, Outcome
 from .writer import discard_outputs, output_paths
 
 log = logging.getLogger("synthcompose")
@@ -43,12 +42,6 @@ log = logging.getLogger("synthcompose")
 LOCK_NAME = ".synthcompose.lock"
 #: the dataset's input folders (Cityscapes layout): an output root must not be or lie in them
 INPUT_FOLDERS = ("leftImg8bit", "rightImg8bit", "gtFine", "disparity", "camera", "gtBbox3d")
-#: fault injection (tests): a worker process given this image set key crashes with SIGSEGV
-FAULT_CRASH_ENV = "SYNTHCOMPOSE_FAULT_CRASH"
-
-
-class BatchError(SynthComposeError):
-    """The batch as a whole cannot run (the message says why)."""
 
 
 @dataclass
@@ -216,204 +209,6 @@ class OutputLock:
             fcntl.flock(self._fd, fcntl.LOCK_UN)
             os.close(self._fd)
             self._fd = None
-
-
-# --------------------------------------------------------------------------------- engines
-def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], gl_device: int | None) -> Iterator[Outcome]:
-    with Pipeline(manifest, weights, gl_device=gl_device) as pipe:
-        log.info("GL: %s", pipe.gl.renderer_name)
-        yield from pipe.stream(todo)
-
-
-def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
-                 threads: int) -> None:
-    """A spawned worker: its own GL context; takes image sets over its own pipe until None.
-
-    Each worker has a pipe of its own (no queue shared between workers): a worker that dies
-    while sending can never leave a lock held that would stall the others. The parent keeps
-    :data:`IN_FLIGHT` image sets queued on it, so that the next one is read while one is
-    computed and the last one written (:meth:`Pipeline.stream`); the worker says ("begin",
-    key) when it starts computing one, which is the one that fails if it dies.
-    """
-    # share the cores between workers: llvmpipe's and OpenCV's thread pools would
-    # otherwise each take every core in every worker
-    os.environ.setdefault("LP_NUM_THREADS", str(threads))
-    import cv2
-
-    cv2.setNumThreads(threads)
-    try:
-        pipe = Pipeline(manifest, weights, gl_device=gl_device)
-    except BaseException as exc:  # noqa: BLE001 - report, the parent decides
-        conn.send(("init-failed", f"{type(exc).__name__}: {exc}"))
-        return
-    conn.send(("ready", pipe.gl.renderer_name))
-    crash_on = os.environ.get(FAULT_CRASH_ENV)
-
-    def begin(ident: ImageSetId) -> None:
-        conn.send(("begin", ident.key))
-        if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
-            os.kill(os.getpid(), signal.SIGSEGV)
-
-    for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
-        conn.send(("done", outcome))
-    pipe.close()
-
-
-#: image sets queued on each worker process: one computed, one read ahead
-IN_FLIGHT = 2
-
-
-def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
-                  gpus: int) -> Iterator[Outcome]:
-    """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
-    from multiprocessing.connection import wait
-
-    ctx = mp.get_context("spawn")
-    pending = list(reversed(todo))
-    slots: dict[int, dict] = {}
-    next_id = 0
-    restarts = 0
-    threads = max(1, (os.cpu_count() or 1) // workers)
-
-    def start() -> None:
-        nonlocal next_id
-        wid = next_id
-        next_id += 1
-        parent_end, child_end = ctx.Pipe()
-        device = (wid % gpus) if gpus else None
-        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, child_end, wid, threads),
-                           name=f"synthcompose-worker-{wid}", daemon=True)
-        proc.start()
-        child_end.close()
-        slots[wid] = {"proc": proc, "conn": parent_end, "queued": [], "computing": None, "closed": False}
-
-    def feed(wid: int) -> None:
-        """Top the worker's queue up to IN_FLIGHT; None (stop when done) once nothing is left."""
-        slot = slots[wid]
-        try:
-            while pending and not slot["closed"] and len(slot["queued"]) < IN_FLIGHT:
-                slot["queued"].append(pending.pop())
-                slot["conn"].send(slot["queued"][-1])
-            if not pending and not slot["closed"]:
-                slot["closed"] = True
-                slot["conn"].send(None)
-        except (OSError, ValueError):
-            pass  # died meanwhile: noticed through its sentinel
-
-    for _ in range(min(workers, len(todo))):
-        start()
-    outstanding = len(todo)
-    try:
-        while outstanding:
-            if not slots:
-                for ident in reversed(pending):
-                    yield Outcome(ident.key, "failed", "no worker left to process it")
-                return
-            ready = wait([sl["conn"] for sl in slots.values()] + [sl["proc"].sentinel for sl in slots.values()],
-                         timeout=5.0)
-            for wid, slot in list(slots.items()):
-                message = None
-                if slot["conn"] in ready or slot["proc"].sentinel in ready:
-                    try:
-                        if slot["conn"].poll():
-                            message = slot["conn"].recv()
-                    except (EOFError, OSError):
-                        message = None
-                if message is not None:
-                    kind, payload = message
-                    if kind == "init-failed":
-                        raise BatchError(f"a worker could not start: {payload}")
-                    if kind == "ready":
-                        if wid == 0:
-                            log.info("GL: %s", payload)
-                    elif kind == "begin":
-                        slot["computing"] = payload
-                    else:
-                        slot["queued"] = [i for i in slot["queued"] if i.key != payload.key]
-                        outstanding -= 1
-                        yield payload
-                    feed(wid)
-                    continue
-                if slot["proc"].sentinel in ready or not slot["proc"].is_alive():
-                    slot["proc"].join(timeout=1)
-                    del slots[wid]
-                    slot["conn"].close()
-                    # the image set it was computing fails; the ones queued behind it go to others
-                    for ident in reversed(slot["queued"]):
-                        if ident.key == slot["computing"]:
-                            outstanding -= 1
-                            yield Outcome(ident.key, "failed",
-                                          f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
-                        else:
-                            pending.append(ident)
-                    if pending and restarts < 10 * workers:
-                        restarts += 1
-                        if slot["proc"].exitcode != 0:
-                            log.warning("worker %d died (exit code %s); starting a replacement", wid,
-                                        slot["proc"].exitcode)
-                        start()
-    finally:
-        for slot in slots.values():
-            try:
-                slot["conn"].send(None)
-            except (OSError, ValueError):
-                pass
-        for slot in slots.values():
-            slot["proc"].join(timeout=10)
-            if slot["proc"].is_alive():
-                slot["proc"].terminate()
-
-
-def _ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
-                address: str | None, gpus_per_actor: float) -> Iterator[Outcome]:
-    """Ray actors, one GL context each (GPUs as Ray resources); a dead actor is replaced."""
-    try:
-        import ray
-    except ImportError:
-        raise BatchError("--ray needs Ray: pip install 'synthcompose[ray]'") from None
-    started_here = not ray.is_initialized()
-    if started_here:
-        ray.init(address=address or None, include_dashboard=False, logging_level=logging.WARNING,
-                 log_to_driver=False)
-    try:
-        Actor = ray.remote(num_cpus=1, num_gpus=gpus_per_actor)(_RayWorker)
-        n = max(1, min(workers or int(ray.cluster_resources().get("CPU", 1)), len(todo)))
-        actors = [Actor.remote(manifest, weights) for _ in range(n)]
-        pending = list(reversed(todo))
-        running: dict = {}
-
-        def submit(actor) -> None:
-            if pending:
-                ident = pending.pop()
-                running[actor.process.remote(ident)] = (actor, ident)
-
-        for actor in actors:
-            submit(actor)
-        while running:
-            ready, _ = ray.wait(list(running), num_returns=1)
-            ref = ready[0]
-            actor, ident = running.pop(ref)
-            try:
-                yield ray.get(ref)
-            except ray.exceptions.RayError as exc:
-                yield Outcome(ident.key, "failed", f"Ray worker failed on this image set: {type(exc).__name__}")
-                ray.kill(actor, no_restart=True)
-                actor = Actor.remote(manifest, weights)
-            submit(actor)
-    finally:
-        if started_here:
-            ray.shutdown()
-
-
-class _RayWorker:
-    """Body of a Ray actor: one Pipeline (one GL context) for its lifetime."""
-
-    def __init__(self, manifest: Manifest, weights: np.ndarray) -> None:
-        logging.basicConfig(level=logging.WARNING)
-        self.pipe = Pipeline(manifest, weights)
-
-    def process(self, ident: ImageSetId) -> Outcome:
-        return self.pipe.process(ident)
 
 
 # -------------------------------------------------------------------------------- the batch
