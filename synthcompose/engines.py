@@ -41,6 +41,7 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
     computed and the last one written (:meth:`Pipeline.stream`); the worker says ("begin",
     key) when it starts computing one, which is the one that fails if it dies.
     """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the parent, which stops the batch
     # share the cores between workers: llvmpipe's and OpenCV's thread pools would
     # otherwise each take every core in every worker
     os.environ.setdefault("LP_NUM_THREADS", str(threads))
@@ -60,9 +61,15 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
         if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
             os.kill(os.getpid(), signal.SIGSEGV)
 
-    for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
-        conn.send(("done", outcome))
-    pipe.close()
+    try:
+        for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
+            conn.send(("done", outcome))
+    except (BrokenPipeError, EOFError, ConnectionResetError, KeyboardInterrupt):
+        # the parent is gone (SIGTERM, Ctrl-C): it reports; a worker just stops, without a
+        # traceback of its own (what it wrote is complete or a temporary file: a rerun resumes)
+        pass
+    finally:
+        pipe.close()
 
 
 #: image sets queued on each worker process: one computed, one read ahead

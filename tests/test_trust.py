@@ -271,3 +271,24 @@ def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "1 done" in run.stdout
+
+
+def test_sigterm_with_workers_prints_no_traceback(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    root = tmp_path / "cs"
+    make_sample(root, count=8, width=W, height=H, seed=8)
+    manifest = write_manifest(tmp_path / "m.json", root, tmp_path / "out")
+    proc = subprocess.Popen([sys.executable, "-m", "synthcompose", "batch", str(manifest), "--workers", "2",
+                             "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list((tmp_path / "out").rglob("*_synthcompose.json")):
+        time.sleep(0.1)  # the workers are at work: a set is done, others in flight
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    time.sleep(1.0)  # the workers notice their parent is gone
+    assert "Traceback" not in err, err[-3000:]
