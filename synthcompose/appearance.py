@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .colour import LUM
 from .models import Model
 
 #: (name, share, linear albedo) of car paints
@@ -153,7 +154,7 @@ def palette_rank(palette, name: str) -> tuple[float, float]:
     """(lightness, colourfulness) rank of colour ``name`` in ``palette``: the share of the
     palette below it plus half its own share, by luminance and by chroma."""
     shares = np.array([p[1] for p in palette]) / sum(p[1] for p in palette)
-    lum = np.array([np.dot(p[2], (0.2126, 0.7152, 0.0722)) for p in palette])
+    lum = np.array([np.dot(p[2], LUM) for p in palette])
     chroma = np.array([_chroma(p[2]) for p in palette])
     i = [p[0] for p in palette].index(name)
     rank = []

@@ -20,14 +20,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .colour import srgb_to_linear
+from .colour import LUM, SRGB8_TO_LINEAR
 
-LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
 #: real objects smaller than this (visible pixels) are too far or too hidden to compare
 MIN_REAL_PIXELS = 400
 #: the ratio's smoothing (pixels) and the shadow depth below which a pixel is not in the shadow
 SHADOW_SIGMA, SHADOW_MIN_DEPTH = 4.0, 0.03
-_LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+_LUT = SRGB8_TO_LINEAR
 
 
 @dataclass(frozen=True)

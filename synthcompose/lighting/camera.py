@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..colour import LUM, linear_to_srgb, srgb_to_linear
+
 
 #: what :func:`estimate_blur` measures on edges as sharp as the renderer's (4x MSAA resolved,
 #: i.e. box-filtered over the pixel): the object layer is blurred by the rest of the photo's
@@ -126,7 +128,6 @@ CENTRAL = (0.15, 0.85)
 TONE_SAMPLES = 4000
 #: classes that stand in for each other as references (Cityscapes ids): vehicles, people
 REFERENCE_GROUPS = ((26, 27, 28, 29, 30, 31, 32, 33), (24, 25))
-_LUM = np.array([0.2126, 0.7152, 0.0722], np.float32)
 ROAD_ID = 7
 #: without references in the frame (no labels, or too few cars): cars' tones relative to the
 #: road's under the same light and camera - per-car median HSV value against the road's (in
@@ -138,13 +139,8 @@ ROAD_PRIOR = ((0.22, 0.28, 0.39, 0.57, 0.94, 1.48, 1.6), (0.98, 1.03, 1.08, 1.13
 ROAD_PRIOR_CLASSES = (26, 27, 28, 29)  # car, truck, bus, caravan
 
 
-def _srgb(c: np.ndarray) -> np.ndarray:
-    c = np.clip(c, 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-
-
 def _linear(v: float) -> float:
-    return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+    return float(srgb_to_linear(np.float64(v)))
 
 
 def _hsv_vs(srgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -203,7 +199,7 @@ class ToneReference:
         if self.road is not None and class_id in ROAD_PRIOR_CLASSES:
             v_road, s_road = self.road
             lin = np.array([_linear(v_road / 255.0) * r for r in ROAD_PRIOR[0]])
-            v = 255.0 * _srgb(lin)
+            v = 255.0 * linear_to_srgb(lin)
             return np.column_stack([v, s_road * np.asarray(ROAD_PRIOR[1])]), "road prior"
         return None, "none"
 
@@ -212,11 +208,11 @@ def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray, gain:
     """The factor s (c' = gain (Y + s (c - Y)), linear) that gives ``colours`` (N, 3) the median
     HSV saturation ``target`` once the camera's ``noise`` (N, 3, sRGB units) is on them, as the
     compose puts it (bisection; saturation grows with s)."""
-    y = (colours @ _LUM)[:, None]
+    y = (colours @ LUM)[:, None]
 
     def median_s(s: float) -> float:
         c = gain * np.maximum(y + s * (colours - y), 0.0)
-        return float(np.median(_hsv_vs(np.clip(_srgb(c) + noise, 0, 1))[1]))
+        return float(np.median(_hsv_vs(np.clip(linear_to_srgb(c) + noise, 0, 1))[1]))
 
     lo, hi = 0.0, 4.0
     if median_s(hi) <= target:
@@ -257,11 +253,11 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
         s_t = float(np.quantile(ref[:, 1], lo + (hi - lo) * q_s))
         sigma = np.asarray(match.noise_sigma if match is not None else (0.0, 0.0, 0.0), float) / 255.0
         noise = np.random.default_rng(k).standard_normal(colours.shape) * sigma
-        y = (colours @ _LUM)[:, None]
+        y = (colours @ LUM)[:, None]
         gain = 1.0
         for _ in range(3):  # the gain moves the saturation in sRGB a little: solve the two in turn
             sat = _saturation_for(colours, s_t, noise, gain)
-            v_now = float(np.median(_hsv_vs(_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
+            v_now = float(np.median(_hsv_vs(linear_to_srgb(np.maximum(y + sat * (colours - y), 0.0)))[0]))
             gain = _linear(v_t / 255.0) / max(_linear(v_now / 255.0), 1e-6)
         out.append({"gain": float(np.clip(gain, 0.05, 20.0)), "saturation": float(sat), "reference": what,
                     "target_hsv_value": round(v_t, 1), "target_hsv_saturation": round(s_t, 1)})

@@ -8,12 +8,11 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..colour import srgb_to_linear
+from ..colour import LUM as _LUM, SRGB8_TO_LINEAR
 from ..render import Lighting
 
 
-#: Rec. 709 luminance weights of linear RGB
-LUM = np.array([0.2126, 0.7152, 0.0722])
+LUM = _LUM  # Rec. 709 luminance weights of linear RGB
 #: typical albedo of asphalt and of sidewalk paving (linear luminance): the exposure reference
 ROAD_ALBEDO, SIDEWALK_ALBEDO = 0.10, 0.25
 #: limits of the recorded exposure
@@ -39,7 +38,7 @@ OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27
 SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
 _FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
-_LUT = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+_LUT = SRGB8_TO_LINEAR
 
 
 def _unit(c) -> np.ndarray:

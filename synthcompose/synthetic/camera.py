@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..colour import linear_to_srgb, srgb_to_linear
+from ..colour import LUM, linear_to_srgb, srgb_to_linear
 
 PHOTO_MODES = ("realistic", "clean")
 #: tone curve: gamma (in linear light) and exposure ranges, drawn per frame (log-uniform exposure)
@@ -57,6 +57,6 @@ def recorded_colour(rgb_linear, seed: int) -> np.ndarray:
     ``seed`` records it (:func:`camera_look`: white balance, muting, tone curve), measured on a
     mid-grey patch: what an estimate of the light from that photo can find."""
     c = np.asarray(rgb_linear, np.float32)
-    patch = np.full((8, 8, 3), 0.12, np.float32) * c / float(c @ np.array([0.2126, 0.7152, 0.0722], np.float32))
+    patch = np.full((8, 8, 3), 0.12, np.float32) * c / float(c @ LUM)
     srgb = np.rint(np.clip(linear_to_srgb(patch), 0, 1) * 255).astype(np.float32)
     return srgb_to_linear(camera_look(srgb, seed) / np.float32(255.0)).reshape(-1, 3).mean(axis=0)
