@@ -35,20 +35,19 @@ from synthcompose.geometry import disparity_to_depth  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 
+sys.path.insert(0, str(REPO / "benchmarks"))
+from eval_real import write_manifest as demo_manifest  # noqa: E402
+
 CAR = label_id("car")
 GROUND = [label_id(n) for n in ("road", "sidewalk", "parking", "ground", "terrain", "rail track")]
 
 
 def write_manifest(root: Path, out: Path, objects: int, seed: int, car_weight: float, folder: Path) -> Path:
-    demo = REPO / "assets" / "demo" / "manifest.json"
-    m = json.loads(demo.read_text())
+    """eval_real's manifest (the demo's objects on ``root``), cars weighed up, light estimated."""
+    m = json.loads(demo_manifest(root, out, objects, seed, folder).read_text())
     for obj in m["objects"]:
-        if not obj["model"].startswith("builtin:"):
-            obj["model"] = str((demo.parent / obj["model"]).resolve())
         if obj["class"] == "car":
             obj["weight"] = car_weight
-    splits = sorted({i.split for i in find_image_sets(root)})
-    m.update(dataset=str(root), output=str(out), splits=splits, seed=seed, objects_per_image=objects)
     m["lighting"] = {"mode": "estimate", "camera_match": True}
     path = folder / f"look_manifest_{seed}.json"
     path.write_text(json.dumps(m, indent=2))

@@ -38,33 +38,45 @@ class Tone:
     pixels: int
 
 
-def _inner(mask: np.ndarray) -> np.ndarray:
-    """The mask without its border pixel (antialiased edges mix in the background)."""
+def _inner(mask: np.ndarray, fallback: bool = True) -> np.ndarray | None:
+    """The mask without its border pixel (antialiased edges mix in the background); where that
+    leaves fewer than 20 pixels, the whole mask (``fallback``) or None."""
     inner = cv2.erode(mask.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    return inner if inner.sum() >= 20 else mask
+    if inner.sum() >= 20:
+        return inner
+    return mask if fallback else None
 
 
-def tone(rgb: np.ndarray, mask: np.ndarray) -> Tone | None:
-    """The :class:`Tone` of ``rgb`` (H, W, 3 uint8 sRGB) over ``mask``; None when it is empty."""
-    m = _inner(mask)
-    if not m.any():
+def tone(rgb: np.ndarray, mask: np.ndarray, fallback: bool = True) -> Tone | None:
+    """The :class:`Tone` of ``rgb`` (H, W, 3 uint8 sRGB) over ``mask``; None when it is empty
+    (or, without ``fallback``, has fewer than 20 pixels inside its border)."""
+    m = _inner(mask, fallback)
+    if m is None or not m.any():
         return None
     hsv = cv2.cvtColor(rgb[m][None], cv2.COLOR_RGB2HSV_FULL)[0]
     return Tone(float(np.median(hsv[:, 2])), float(np.median(hsv[:, 1])), int(m.sum()))
+
+
+def instance_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int | None = None,
+                   min_pixels: int = MIN_REAL_PIXELS, fallback: bool = True) -> dict[int, Tone]:
+    """Instance id -> :class:`Tone` of every real object (of ``class_id``; None: of every class
+    with instances) in the frame with at least ``min_pixels`` visible pixels."""
+    out = {}
+    sel = (instance_ids // 1000) == class_id if class_id is not None else instance_ids >= 1000
+    ids, counts = np.unique(instance_ids[sel], return_counts=True)
+    for inst, n in zip(ids, counts):
+        if n >= min_pixels:
+            t = tone(rgb, instance_ids == inst, fallback)
+            if t is not None:
+                out[int(inst)] = t
+    return out
 
 
 def real_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int,
                min_pixels: int = MIN_REAL_PIXELS) -> dict[int, Tone]:
     """Instance id -> :class:`Tone` of every real object of ``class_id`` in the frame with at
     least ``min_pixels`` visible pixels."""
-    out = {}
-    ids, counts = np.unique(instance_ids[(instance_ids // 1000) == class_id], return_counts=True)
-    for inst, n in zip(ids, counts):
-        if n >= min_pixels:
-            t = tone(rgb, instance_ids == inst)
-            if t is not None:
-                out[int(inst)] = t
-    return out
+    return instance_tones(rgb, instance_ids, class_id, min_pixels)
 
 
 def _ring(mask: np.ndarray, others: np.ndarray) -> np.ndarray:

@@ -169,19 +169,11 @@ class ToneReference:
             road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
         if instance_ids is None:
             return cls({}, road)
+        from ..look import instance_tones
+
         tones: dict[int, list] = {}
-        ids, counts = np.unique(instance_ids[instance_ids >= 1000], return_counts=True)
-        hsv = None
-        for inst, n in zip(ids, counts):
-            if n < MIN_REFERENCE_PIXELS:
-                continue
-            m = cv2.erode((instance_ids == inst).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-            if m.sum() < 20:
-                continue
-            if hsv is None:
-                hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV_FULL)
-            px = hsv[m]
-            tones.setdefault(int(inst) // 1000, []).append((float(np.median(px[:, 2])), float(np.median(px[:, 1]))))
+        for inst, t in instance_tones(rgb, instance_ids, None, MIN_REFERENCE_PIXELS, fallback=False).items():
+            tones.setdefault(inst // 1000, []).append((t.brightness, t.saturation))
         return cls({k: np.asarray(v) for k, v in tones.items()}, road)
 
     def for_class(self, class_id: int) -> tuple[np.ndarray | None, str]:
