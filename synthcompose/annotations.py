@@ -2,10 +2,12 @@
 
 Per image set (written next to the other outputs, before the record):
 
-* ``gtFine/<split>/<city>/<name>_gtFine_polygons.json`` - Cityscapes polygons. The input's
-  polygons (when it has a polygons file) are copied, then one entry per visible part of
-  each inserted object is appended: Cityscapes draws polygons in file order, later ones on
-  top, and the inserted objects are in front of whatever they cover.
+* ``gtFine/<split>/<city>/<name>_gtFine_polygons.json`` - Cityscapes polygons that draw back
+  (cityscapesScripts' ``json2labelImg`` / ``json2instanceImg``) to the written labelIds and
+  instanceIds (:mod:`synthcompose.polygons`). The input's polygons (when it has a polygons
+  file) are copied, then one entry per inserted object is appended (its visible pixels):
+  Cityscapes draws polygons in file order, later ones on top. Without an input polygons file
+  the whole frame is described.
 * ``gtBbox3d/<split>/<city>/<name>_gtBbox3d.json`` - Cityscapes 3D boxes, the layout
   cityscapesScripts' ``CsBbox3d`` / ``Box3dImageTransform`` and ``evalObjectDetection3d``
   read (the input's own ``gtBbox3d`` objects are copied first when it has that file).
@@ -25,7 +27,7 @@ Conventions
   (:attr:`Composed.visible`), the *amodal* mask its whole rendered silhouette
   (``RenderPasses.read("id")``), both sampled at pixel centres.
 * Polygons: vertices at pixel centres (integer (x, y) = column, row), the way cityscapesScripts
-  rasterises them (PIL ``ImageDraw.polygon``, boundary included; ``cv2.fillPoly`` agrees).
+  rasterises them (Pillow ``ImageDraw.polygon``: even-odd, boundary included).
 * 3D: vehicle frame V (ISO 8855, metres, see :mod:`synthcompose.camera`); the box centre is
   the centre of the object's box (its footprint centre raised by half its height), the
   rotation the quaternion [w, x, y, z] of V <- object, dimensions [length, width, height].
@@ -36,7 +38,6 @@ import logging
 from pathlib import Path
 from typing import Any, Sequence
 
-import cv2
 import numpy as np
 from cityscapesscripts.helpers.labels import name2label
 from pycocotools import mask as mask_utils
@@ -47,12 +48,12 @@ from .dataset import ImageSetId
 from .errors import InputError
 from .fileio import read_json, write_json
 from .placement import box_corners
+from .polygons import frame_polygons, mask_polygon
 from .render import Roi
 
 log = logging.getLogger("synthcompose")
 
 Box = list[int]  # [x0, y0, x1, y1], pixel edges, x1/y1 exclusive
-Polygon = list[list[int]]  # [[x, y], ...] pixel centres
 
 COCO_NAME = "coco_instances.json"
 
@@ -96,107 +97,60 @@ def decode_rle(rle: dict[str, Any]) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------- polygons
-def remove_holes(mask: np.ndarray) -> np.ndarray:
-    """Copy of an (H, W) mask without holes: each hole is filled or opened, whichever
-    changes fewer pixels.
-
-    A hole is a region of background pixels (4-connected, as OpenCV's contour tracing sees
-    background) enclosed by the mask. Holes are taken top-most first. A hole is *opened* by
-    a one-pixel vertical cut: the mask pixels straight above its top-most pixel are cleared
-    up to the first background pixel, which is higher than the hole's top and already joined
-    to the outside (holes above were treated first), so the outer contours of the result
-    describe it exactly. When the hole has no more pixels than that cut, it is *filled*
-    instead (a speck of real scene in front of the object is not worth a cut across it).
-    Returns (H, W) uint8 0/1.
-    """
-    m = np.pad(mask.astype(np.uint8), 1)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(1 - m, connectivity=4)
-    if n <= 2:  # background is one region: no holes
-        return m[1:-1, 1:-1].copy()
-    outside = labels[0, 0]
-    # top-most, then left-most pixel of each background component: its first in row-major order
-    _, first = np.unique(labels.ravel(), return_index=True)
-    width = m.shape[1]
-    for label in sorted(range(n), key=lambda i: first[i]):
-        if label == outside:
-            continue
-        top, x = divmod(int(first[label]), width)
-        y = top - 1
-        while m[y, x]:  # the pad row guarantees a stop
-            y -= 1
-        if stats[label, cv2.CC_STAT_AREA] <= top - 1 - y:
-            x0, y0, w, h = (int(v) for v in stats[label, :4])
-            box = labels[y0:y0 + h, x0:x0 + w] == label
-            m[y0:y0 + h, x0:x0 + w][box] = 1
-        else:
-            m[y + 1:top, x] = 0
-    return m[1:-1, 1:-1].copy()
+def polygon_instance_counts(source: Path) -> dict[int, int]:
+    """Per class id with instances: how many entries the input's polygons file numbers
+    (cityscapesScripts counts every entry of the class but its groups and deleted ones), so
+    that an inserted instance appended after them gets the id its position gives it."""
+    counts: dict[int, int] = {}
+    for obj in _polygon_entries(source, read_json(source)):
+        label = name2label.get(obj["label"])
+        if label is not None and label.hasInstances and not obj.get("deleted"):
+            counts[label.id] = counts.get(label.id, 0) + 1
+    return counts
 
 
-#: parts of fewer pixels are left out of the polygons: specks where a real occluder has no
-#: disparity and the object shows through, not parts an annotator would draw
-MIN_PART_PIXELS = 4
+def _polygon_entries(source: Path, data: Any) -> list[dict[str, Any]]:
+    """The entries of an input polygons file, each checked to be what cityscapesScripts draws:
+    an object with a string ``label`` and a ``polygon`` of [x, y] number pairs."""
+    if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
+        raise InputError(source, "polygons JSON must be an object with an 'objects' list")
+    for i, obj in enumerate(data["objects"]):
+        if not isinstance(obj, dict) or not isinstance(obj.get("label"), str):
+            raise InputError(source, f"polygons JSON entry {i} has no 'label' string")
+        poly = obj.get("polygon")
+        if not isinstance(poly, list) or not all(
+                isinstance(p, list) and len(p) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                          for v in p) for p in poly):
+            raise InputError(source, f"polygons JSON entry {i} ({obj['label']!r}) has no 'polygon' list of [x, y]")
+    return data["objects"]
 
 
-def mask_polygons(mask: np.ndarray, min_part_pixels: int = MIN_PART_PIXELS) -> list[Polygon]:
-    """Polygons of an (H, W) mask, one per 8-connected part, holes removed (:func:`remove_holes`).
+def polygons_document(source: Path | None, objects: Sequence[dict], visible: np.ndarray,
+                      label_ids: np.ndarray, instance_ids: np.ndarray) -> dict[str, Any]:
+    """The gtFine polygons JSON of an augmented image set: it draws back (cityscapesScripts)
+    to the written ``label_ids`` and ``instance_ids``.
 
-    Vertices are pixel centres of the part's boundary (OpenCV outer contours, straight runs
-    reduced to their ends), so filling them with the boundary included gives back the mask
-    with its holes removed and without its parts of fewer than ``min_part_pixels`` pixels.
-    A part one pixel thick may trace to two vertices: the last is repeated so every polygon
-    has at least three (drawable by PIL and cv2). Ordered by the parts' top-left vertex.
-    """
-    x0, y0, w, h = cv2.boundingRect(np.asarray(mask, np.uint8))
-    if w == 0:
-        return []
-    # the work in the mask's bounding box (polygons, holes and parts are the same: what lies
-    # outside it is background joined to the image border), in full-frame coordinates
-    solid = remove_holes(mask[y0:y0 + h, x0:x0 + w])
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(solid, connectivity=8)
-    small = np.flatnonzero(stats[:, cv2.CC_STAT_AREA] < min_part_pixels)
-    small = small[small != 0]  # label 0 is the background
-    if small.size:
-        solid[np.isin(labels, small)] = 0
-    contours, _ = cv2.findContours(solid, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    polys = []
-    for c in contours:
-        pts = [[int(x) + x0, int(y) + y0] for x, y in c.reshape(-1, 2)]
-        while len(pts) < 3:
-            pts.append(list(pts[-1]))
-        polys.append(pts)
-    polys.sort(key=lambda p: (min(q[1] for q in p), min(q[0] for q in p)))
-    return polys
-
-
-def rasterize_polygons(polygons: Sequence[Polygon], shape: tuple[int, int]) -> np.ndarray:
-    """(H, W) bool: the pixels ``cv2.fillPoly`` fills for the polygons (for checks)."""
-    out = np.zeros(shape, np.uint8)
-    for poly in polygons:
-        cv2.fillPoly(out, [np.asarray(poly, np.int32).reshape(-1, 1, 2)], 1)
-    return out.astype(bool)
-
-
-def polygons_document(source: Path | None, objects: Sequence[dict], visible: np.ndarray) -> dict[str, Any]:
-    """The gtFine polygons JSON of an augmented image set.
-
-    ``source``: the input set's ``gtFine_polygons.json`` or None; its objects are copied
-    first (any extra top-level keys are kept). ``objects``: the record's object entries
-    (``index``, ``class``); ``visible`` (H, W) uint8: index of the object seen at each pixel.
-    Each visible part of an object becomes one ``{"label", "polygon"}`` entry.
+    ``source``: the input set's ``gtFine_polygons.json`` or None. With it, its entries are
+    copied (any extra top-level keys kept) and each inserted object (``objects``: the record's
+    entries, ``index``, ``class``, ``instance_id``) is appended as one entry, its visible pixels
+    (``visible`` (H, W) uint8: index of the object seen at each pixel), in instance-id order.
+    Without it, the whole frame is described from ``label_ids`` / ``instance_ids``
+    (:func:`polygons.frame_polygons`).
     """
     h, w = visible.shape
     doc: dict[str, Any] = {"imgHeight": h, "imgWidth": w, "objects": []}
-    if source is not None:
-        data = read_json(source)
-        if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
-            raise InputError(source, "polygons JSON must be an object with an 'objects' list")
-        if (data.get("imgWidth"), data.get("imgHeight")) != (w, h):
-            raise InputError(source, f"polygons JSON is for {data.get('imgWidth')}x{data.get('imgHeight')} "
-                                     f"but the image is {w}x{h}")
-        doc = dict(data) | {"objects": list(data["objects"])}
-    for obj in objects:
-        for poly in mask_polygons(visible == obj["index"]):
+    if source is None:
+        doc["objects"] = frame_polygons(label_ids, instance_ids)
+        return doc
+    data = read_json(source)
+    entries = _polygon_entries(source, data)
+    if (data.get("imgWidth"), data.get("imgHeight")) != (w, h):
+        raise InputError(source, f"polygons JSON is for {data.get('imgWidth')}x{data.get('imgHeight')} "
+                                 f"but the image is {w}x{h}")
+    doc = dict(data) | {"objects": list(entries)}
+    for obj in sorted(objects, key=lambda o: (int(o["instance_id"]), int(o["index"]))):
+        poly = mask_polygon(visible == obj["index"])
+        if poly is not None:
             doc["objects"].append({"label": obj["class"], "polygon": poly})
     return doc
 
@@ -279,8 +233,9 @@ def bbox3d_document(camera: Camera, objects: Sequence[dict], source: Path | None
                            "objects": [], "ignore": []}
     if source is not None:
         data = read_json(source)
-        if not isinstance(data, dict) or not isinstance(data.get("objects", []), list):
-            raise InputError(source, "gtBbox3d JSON must be an object with an 'objects' list")
+        if not isinstance(data, dict) or not isinstance(data.get("objects", []), list) \
+                or not isinstance(data.get("ignore", []), list):
+            raise InputError(source, "gtBbox3d JSON must be an object with 'objects' and 'ignore' lists")
         doc["objects"] = list(data.get("objects", []))
         doc["ignore"] = list(data.get("ignore", []))
     for obj in objects:
@@ -317,15 +272,18 @@ def annotate_objects(record: dict[str, Any], visible: np.ndarray, amodal: Sequen
 
 
 def write_frame_annotations(out_root: Path, dataset_root: Path, ident: ImageSetId, record: dict[str, Any],
-                            visible: np.ndarray, camera: Camera) -> list[Path]:
+                            visible: np.ndarray, label_ids: np.ndarray, instance_ids: np.ndarray,
+                            camera: Camera) -> list[Path]:
     """Write the polygons and gtBbox3d files of one augmented image set; returns their paths.
 
     ``record``: the set's record after :func:`annotate_objects`; the input set's polygons
-    and gtBbox3d files under ``dataset_root`` are merged in when they exist.
+    and gtBbox3d files under ``dataset_root`` are merged in when they exist; ``label_ids`` /
+    ``instance_ids``: the written label images (the polygons describe them).
     """
     src_poly = ident.path(dataset_root, "polygons")
     src_3d = bbox3d_path(dataset_root, ident)
-    polygons = polygons_document(src_poly if src_poly.is_file() else None, record["objects"], visible)
+    polygons = polygons_document(src_poly if src_poly.is_file() else None, record["objects"], visible, label_ids,
+                                 instance_ids)
     boxes = bbox3d_document(camera, record["objects"], src_3d if src_3d.is_file() else None)
     paths = [ident.path(out_root, "polygons"), bbox3d_path(out_root, ident)]
     write_json(paths[0], polygons)

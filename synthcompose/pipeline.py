@@ -24,7 +24,7 @@ from threadpoolctl import threadpool_limits
 
 from . import __version__
 from .appearance import Appearance, appearance_rng, draw_appearance
-from .annotations import amodal_boxes, annotate_objects, write_frame_annotations  # annotations
+from .annotations import amodal_boxes, annotate_objects, polygon_instance_counts, write_frame_annotations  # annotations
 from .colour import srgb_to_linear
 from .camera import Camera
 from .compose import Composed, Composer, SceneLayers
@@ -330,7 +330,10 @@ class Pipeline:
         image_set, depth, frame, rng, cam = prep.image_set, prep.depth, prep.frame, prep.rng, prep.image_set.camera
         placed: list[tuple[ObjectSpec, Placement, int]] = []
         records, failures = [], []
-        taken: set[int] = set()
+        taken: set[int] = set()  # instance ids given; with an input polygons file, its numbering too
+        src_poly = ident.path(m.dataset, "polygons")
+        if src_poly.is_file():
+            taken = {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(src_poly).items() if n}
         with _timed(timings, "placement"):
             saved = self.saved_placement(ident)  # saved placements: these objects and poses, no draw
             for k in range(m.objects_per_image if saved is None else len(saved.objects)):
@@ -483,7 +486,8 @@ class Pipeline:
             # --- annotations (annotations.py): amodal boxes and visible-mask RLE in the record,
             # gtFine polygons and gtBbox3d files; before the record, which is written last
             annotate_objects(record, composed.visible, c.amodal, ident)
-            write_frame_annotations(m.output, m.dataset, ident, record, composed.visible, cam)
+            write_frame_annotations(m.output, m.dataset, ident, record, composed.visible, composed.label_ids,
+                                    composed.instance_ids, cam)
             # --- end annotations
             record["status"] = "done"
             write_record(m.output, ident, record)

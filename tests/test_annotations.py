@@ -16,8 +16,10 @@ from cityscapesscripts.helpers.labels import id2label
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 from pycocotools.coco import COCO
 
-from synthcompose.annotations import (COCO_NAME, bbox3d_path, box3d_corners, decode_rle, mask_box, mask_polygons,
-                                      rasterize_polygons, remove_holes)
+from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
+
+from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners, decode_rle, mask_box
+from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
@@ -28,6 +30,8 @@ from .test_batch import write_manifest
 
 W, H = 640, 320
 POLYGON_MIN_IOU = 0.98  # polygons rasterised vs the visible mask
+LABELS_DRAWN_BACK = 0.995  # share of pixels where cityscapesScripts' drawing equals the labelIds
+INSTANCES_DRAWN_BACK = 0.99  # ... equals the instanceIds
 CORNER_PX = 1.0  # cityscapesScripts' projected 3D box corners vs ours, pixels
 CORNER_M = 0.01  # cityscapesScripts' 3D box corners in V vs ours, metres
 SILHOUETTE_PX = 1.0  # the amodal silhouette box may exceed the projected 3D box by this much
@@ -38,25 +42,28 @@ def _iou(a: np.ndarray, b: np.ndarray) -> float:
 
 
 # ------------------------------------------------------------------ polygons, no GL needed
-def test_holes_are_opened_or_filled_and_polygons_fill_back_exactly():
+def _filled(poly, shape) -> np.ndarray:
+    return draw_polygons([(poly, 1)], shape).astype(bool)
+
+
+def test_one_polygon_per_mask_keeps_its_holes_and_joins_its_parts():
     mask = np.zeros((40, 50), bool)
     mask[5:35, 5:45] = True
-    mask[15:25, 15:25] = False  # a large hole: opened by a cut to the top edge (10 px)
-    mask[30, 40] = False  # a one-pixel speck: filled
+    mask[15:25, 15:25] = False  # a large hole: stays open
+    mask[30, 40] = False  # a one-pixel hole: stays open too
+    mask[8:10, 30:32] = False  # a hole just under the top edge
+    filled = _filled(mask_polygon(mask), mask.shape)
+    assert (filled == mask).all()  # one part: exactly its pixels (Pillow's even-odd fill)
     mask[2, 2] = True  # a one-pixel part: a speck, left out
-    mask[37, 10:20] = True  # a one-pixel-thick part: two vertices, the last repeated
-    polys = mask_polygons(mask)
-    assert len(polys) == 2 and all(len(p) >= 3 for p in polys)
-    filled = rasterize_polygons(polys, mask.shape)
-    without_speck = remove_holes(mask).astype(bool)
-    without_speck[2, 2] = False
-    assert (filled == without_speck).all()
-    assert not filled[15:25, 15:25].any() and filled[30, 40] and filled[37, 10:20].all()
-    assert (filled != mask).sum() == 10 + 1 + 1
-    assert _iou(filled, mask) > 0.98
+    mask[37, 10:20] = True  # a one-pixel-thick part: joined by a bridge down the gap
+    filled = _filled(mask_polygon(mask), mask.shape)
+    extra = filled & ~mask
+    assert not filled[2, 2] and filled[37, 10:20].all() and (filled | ~mask)[:, 3:].all()
+    assert extra.sum() == 2  # the bridge: rows 35 and 36 of one column
+    assert mask_polygon(np.zeros((4, 4), bool)) is None
 
 
-def test_polygons_of_random_masks_fill_back_to_the_mask_without_holes():
+def test_polygons_of_random_masks_draw_back_to_the_mask_and_their_bridges():
     rng = np.random.default_rng(3)
     for _ in range(50):
         mask = np.zeros((60, 80), np.uint8)
@@ -66,10 +73,73 @@ def test_polygons_of_random_masks_fill_back_to_the_mask_without_holes():
         for _ in range(int(rng.integers(0, 6))):
             cv2.circle(mask, (int(rng.integers(0, 80)), int(rng.integers(0, 60))), int(rng.integers(0, 5)), 0, -1)
         mask = mask.astype(bool)
-        without_holes = remove_holes(mask).astype(bool)
-        n, _ = cv2.connectedComponents(1 - np.pad(without_holes.astype(np.uint8), 1), connectivity=4)
-        assert n == 2  # the background is one region: no hole left
-        assert (rasterize_polygons(mask_polygons(mask, min_part_pixels=1), mask.shape) == without_holes).all()
+        filled = _filled(mask_polygon(mask, min_part_pixels=1), mask.shape)
+        assert filled[mask].all()  # every pixel, holes left open
+        parts = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)[0] - 1
+        if parts == 1:
+            assert (filled == mask).all()
+        else:  # the rest: the bridges between parts, each no longer than the gap it crosses
+            assert (filled & ~mask).sum() <= (parts - 1) * 80
+
+
+def _frame(with_gap: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """A small labelled frame: road with a sidewalk, a building with a window of sky, cars
+    (one split by a pole, one around a hole, one skipped id), a person group, a traffic sign."""
+    lab = np.zeros((60, 100), np.uint8)
+    lab[30:, :] = 7  # road
+    lab[25:30, :] = 8  # sidewalk
+    lab[:25, :] = 11  # building
+    lab[5:10, 40:50] = 23  # a window of sky in the building (a hole, filled, sky drawn after)
+    inst = lab.astype(np.int32).copy()
+    lab[35:50, 10:40] = 26
+    inst[35:50, 10:40] = 26000
+    lab[35:50, 55:80] = 26
+    inst[35:50, 55:80] = 26002 if with_gap else 26001  # id 26001 hidden: skipped
+    lab[40:44, 62:70] = 20  # a sign in front of the car (a hole in it)
+    inst[40:44, 62:70] = 20
+    lab[20:58, 24:27] = 17  # a pole in front of the first car: splits it in two
+    inst[20:58, 24:27] = 17
+    lab[52:58, 85:95] = 24  # a group of people
+    inst[52:58, 85:95] = 24
+    lab[0:3, 0:3] = 0  # unlabeled corner
+    inst[0:3, 0:3] = 0
+    return lab, inst
+
+
+def _drawn_back(objects, shape) -> tuple[np.ndarray, np.ndarray]:
+    """labelIds and instanceIds as cityscapesScripts draws them from polygon entries."""
+    ann = Annotation()
+    ann.fromJsonText(json.dumps({"imgHeight": shape[0], "imgWidth": shape[1], "objects": objects}))
+    return np.array(createLabelImage(ann, "ids")), np.array(createInstanceImage(ann, "ids")).astype(np.int64)
+
+
+@pytest.mark.parametrize("with_gap", [True, False])
+def test_frame_polygons_draw_back_to_the_labels_with_cityscapesscripts(with_gap):
+    lab, inst = _frame(with_gap)
+    objects = frame_polygons(lab, inst)
+    labels, instances = _drawn_back(objects, lab.shape)
+    assert (labels == lab).all() and (instances == inst).all()
+    cars = [o for o in objects if o["label"] == "car"]
+    assert len(cars) == (3 if with_gap else 2)  # one entry per instance, a one-pixel one for the gap
+    assert {o["label"] for o in objects} == {"road", "sidewalk", "building", "sky", "car", "traffic sign", "pole",
+                                             "persongroup"}
+
+
+def test_frame_polygons_of_random_label_images_draw_back():
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        lab = np.full((80, 120), 7, np.uint8)
+        inst = lab.astype(np.int32).copy()
+        for k in range(int(rng.integers(3, 12))):
+            lid = int(rng.choice([11, 17, 20, 21, 24, 26]))
+            c = (int(rng.integers(0, 120)), int(rng.integers(0, 80)))
+            axes = (int(rng.integers(2, 30)), int(rng.integers(2, 20)))
+            m = np.zeros(lab.shape, np.uint8)
+            cv2.ellipse(m, c, axes, float(rng.uniform(0, 180)), 0, 360, 1, -1)
+            lab[m > 0] = lid
+            inst[m > 0] = lid * 1000 + k if lid in (24, 26) else lid
+        labels, instances = _drawn_back(frame_polygons(lab, inst), lab.shape)
+        assert (labels == lab).mean() >= LABELS_DRAWN_BACK and (instances == inst).mean() >= INSTANCES_DRAWN_BACK
 
 
 def test_mask_box_is_pixel_edges_exclusive():
@@ -95,15 +165,6 @@ def test_sensor_matrix_matches_a_real_cityscapes_3d_file():
 
 
 # ------------------------------------------------------------------------- end to end
-def _label_polygons(labels: np.ndarray) -> list[dict]:
-    """A stand-in for an input gtFine polygons file: every label's region, as polygons."""
-    objects = []
-    for value in np.unique(labels):
-        for poly in mask_polygons(labels == value):
-            objects.append({"label": id2label[int(value)].name, "polygon": poly})
-    return objects
-
-
 @pytest.fixture(scope="module")
 def batch(tmp_path_factory) -> tuple[Path, Path, list[ImageSetId]]:
     root = tmp_path_factory.mktemp("cityscapes")
@@ -111,7 +172,7 @@ def batch(tmp_path_factory) -> tuple[Path, Path, list[ImageSetId]]:
     # the first set has its own polygons and 3D boxes: they must be kept
     src = read_image_set(root, ids[0])
     ids[0].path(root, "polygons").write_text(json.dumps(
-        {"imgHeight": H, "imgWidth": W, "objects": _label_polygons(src.label_ids)}))
+        {"imgHeight": H, "imgWidth": W, "objects": frame_polygons(src.label_ids, src.instance_ids)}))
     box_file = bbox3d_path(root, ids[0])
     box_file.parent.mkdir(parents=True)
     box_file.write_text(json.dumps({
@@ -168,45 +229,37 @@ def test_amodal_box_holds_the_modal_box(batch):
                 assert a == m
 
 
-def test_polygons_cover_each_visible_mask(batch):
+def test_polygons_draw_back_to_the_written_labels(batch):
+    """cityscapesScripts' json2labelImg / json2instanceImg drawing of the polygons file gives
+    the written labelIds and instanceIds: the whole frame, one entry per instance."""
     root, out, ids = batch
     for ident, record in zip(ids, _records(out, ids)):
         masks = _visible_masks(root, out, ident, record)
-        doc = json.loads(ident.path(out, "polygons").read_text())
-        assert (doc["imgWidth"], doc["imgHeight"]) == (W, H)
-        source = ident.path(root, "polygons")
-        kept = json.loads(source.read_text())["objects"] if source.is_file() else []
-        assert doc["objects"][:len(kept)] == kept  # the input's objects first, unchanged
-        new = doc["objects"][len(kept):]
-        assert new and all(set(o) == {"label", "polygon"} for o in new)
-        # every appended polygon belongs to the object it overlaps most
-        filled = {k: np.zeros((H, W), bool) for k in masks}
-        for entry in new:
-            raster = rasterize_polygons([entry["polygon"]], (H, W))
-            k = max(masks, key=lambda k: (raster & masks[k]).sum())
-            assert entry["label"] == record["objects"][k - 1]["class"]
-            filled[k] |= raster
-        for k, mask in masks.items():
-            assert _iou(filled[k], mask) >= POLYGON_MIN_IOU, (ident, k)
-
-
-def test_polygons_load_and_draw_with_cityscapesscripts(batch):
-    root, out, ids = batch
-    for ident, record in zip(ids, _records(out, ids)):
+        res = read_image_set(out, ident)
         ann = Annotation()
         ann.fromJsonFile(str(ident.path(out, "polygons")))
         assert (ann.imgWidth, ann.imgHeight) == (W, H)
         assert ann.objects and all(isinstance(o, CsPoly) for o in ann.objects)
-        drawn = np.array(createLabelImage(ann, "ids"))  # json2labelImg's own rasteriser (PIL)
-        masks = _visible_masks(root, out, ident, record)
+        labels = np.array(createLabelImage(ann, "ids"))
+        instances = np.array(createInstanceImage(ann, "ids")).astype(np.int64)
+        assert (labels == res.label_ids).mean() >= LABELS_DRAWN_BACK, ident
+        assert (instances == res.instance_ids).mean() >= INSTANCES_DRAWN_BACK, ident
         for obj in record["objects"]:
-            assert (drawn[masks[obj["index"]]] == obj["label_id"]).mean() >= POLYGON_MIN_IOU
-        if ident == ids[0]:  # with the input's polygons: only the objects' pixels change
+            assert (labels[masks[obj["index"]]] == obj["label_id"]).mean() >= POLYGON_MIN_IOU
+            if HAS_INSTANCES[obj["label_id"]]:
+                assert (instances[masks[obj["index"]]] == obj["instance_id"]).mean() >= POLYGON_MIN_IOU
+        doc = json.loads(ident.path(out, "polygons").read_text())
+        source = ident.path(root, "polygons")
+        if source.is_file():  # the input's objects first, unchanged, then one entry per object
+            kept = json.loads(source.read_text())["objects"]
+            assert doc["objects"][:len(kept)] == kept
+            new = doc["objects"][len(kept):]
+            assert len(new) == len(record["objects"]) and all(set(o) == {"label", "polygon"} for o in new)
             before = Annotation()
-            before.fromJsonFile(str(ident.path(root, "polygons")))
-            changed = np.array(createLabelImage(before, "ids")) != drawn
+            before.fromJsonFile(str(source))
+            changed = np.array(createLabelImage(before, "ids")) != labels
             union = np.any(list(masks.values()), axis=0)
-            assert (changed & ~union).sum() <= 0.02 * union.sum()
+            assert (changed & ~union).sum() <= 0.02 * union.sum()  # only the objects' pixels change
 
 
 def _cs_corner_order(pose: np.ndarray, extents) -> np.ndarray:
@@ -307,7 +360,7 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
 
 
 # ------------------------------------------------------------- an object behind a real pole
-def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
+def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     from synthcompose.annotations import amodal_boxes, annotate_objects, bbox3d_document, polygons_document
     from synthcompose.compose import Composer, SceneLayers
     from synthcompose.geometry import disparity_to_depth, occluder_depth
@@ -352,14 +405,24 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean):
     assert record["image"] == {"file_name": "leftImg8bit/train/synthtown/synthtown_000000_000099_leftImg8bit.png",
                                "width": cam.width, "height": cam.height}
 
-    doc = polygons_document(None, record["objects"], out.visible)
-    # a part or two beside the pole; specks seen through the pole's disparity holes are left out
-    assert 1 <= len(doc["objects"]) <= 3 and {o["label"] for o in doc["objects"]} == {"car"}
-    assert all(rasterize_polygons([o["polygon"]], visible.shape).sum() >= 4 for o in doc["objects"])
-    filled = rasterize_polygons([o["polygon"] for o in doc["objects"]], visible.shape)
+    # appended to the scene's own polygons: one entry, drawn on top, leaving the pole in front alone
+    source = tmp_path / "polygons.json"
+    source.write_text(json.dumps({"imgHeight": cam.height, "imgWidth": cam.width,
+                                  "objects": frame_polygons(arrays["label_ids"], arrays["instance_ids"])}))
+    doc = polygons_document(source, record["objects"], out.visible, out.label_ids, out.instance_ids)
+    (entry,) = doc["objects"][len(json.loads(source.read_text())["objects"]):]
+    assert entry["label"] == "car"
+    filled = _filled(entry["polygon"], visible.shape)
     assert _iou(filled, visible) >= POLYGON_MIN_IOU
-    # drawn on top of the scene's own polygons, ours must leave the pole in front alone
-    assert (filled & hidden).sum() <= 0.02 * visible.sum()
+    assert (filled & hidden).sum() <= 0.02 * visible.sum()  # the bridges across the pole
+    labels, instances = _drawn_back(doc["objects"], visible.shape)
+    assert (labels == out.label_ids).mean() >= LABELS_DRAWN_BACK
+    assert (instances == out.instance_ids).mean() >= INSTANCES_DRAWN_BACK
+    # without the scene's polygons: the whole frame, drawn back
+    whole = polygons_document(None, record["objects"], out.visible, out.label_ids, out.instance_ids)
+    labels, instances = _drawn_back(whole["objects"], visible.shape)
+    assert (labels == out.label_ids).mean() >= LABELS_DRAWN_BACK
+    assert (instances == out.instance_ids).mean() >= INSTANCES_DRAWN_BACK
 
     boxes = bbox3d_document(cam, record["objects"])
     (entry,) = boxes["objects"]
