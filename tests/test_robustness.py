@@ -66,6 +66,25 @@ def _delete(kind):
     return apply
 
 
+def _json(where, text: str):
+    """Give the image set an input JSON file (``where(root, ident)`` -> its path) holding ``text``."""
+    def apply(root, ident):
+        p = where(root, ident)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(text)
+        return p
+    return apply
+
+
+def _polygons(root, ident):
+    return ident.path(root, "polygons")
+
+
+def _boxes(root, ident):
+    from synthcompose.annotations import bbox3d_path
+    return bbox3d_path(root, ident)
+
+
 #: name -> (how to break one image set, text the error must contain after the file name)
 BREAKAGES = {
     "missing camera": (_delete("camera"), "file is missing"),
@@ -86,6 +105,15 @@ BREAKAGES = {
     "disparity all zero": (_png("disparity", lambda: np.zeros((H, W), np.uint16)), "no valid pixel"),
     "impossible disparity": (_png("disparity", lambda: np.full((H, W), 65000, np.uint16)), "exceed half the image width"),
     "unknown label ids": (_png("labelIds", lambda: np.full((H, W), 200, np.uint8)), "does not define: 200"),
+    "polygons not json": (_json(_polygons, "{objects: []"), "is not valid JSON"),
+    "polygons a list": (_json(_polygons, "[]"), "must be an object with an 'objects' list"),
+    "polygons label a list": (_json(_polygons, json.dumps({"imgWidth": W, "imgHeight": H, "objects": [
+        {"label": ["car"], "polygon": [[0, 0], [4, 0], [4, 4]]}]})), "entry 0 has no 'label' string"),
+    "polygons without polygon": (_json(_polygons, json.dumps({"imgWidth": W, "imgHeight": H, "objects": [
+        {"label": "car", "polygon": [[0, 0, 1]]}]})), "entry 0 ('car') has no 'polygon' list"),
+    "polygons of another size": (_json(_polygons, json.dumps({"imgWidth": W * 2, "imgHeight": H, "objects": []})),
+                                 f"is for {W * 2}x{H}"),
+    "3d boxes ignore a number": (_json(_boxes, json.dumps({"objects": [], "ignore": 3})), "'ignore' lists"),
 }
 
 
