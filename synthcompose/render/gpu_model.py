@@ -1,5 +1,5 @@
 """The GL side of the models: vertex layout, textures, a model uploaded once
-(:class:`_GpuModel`), and the matrices of the light views."""
+(:class:`GpuModel`), and the unit ground plane every object stands on (:class:`GroundPlane`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -7,43 +7,14 @@ from dataclasses import dataclass, replace
 import moderngl
 import numpy as np
 
-from .gl import GLContext
-from .models import Model
-
-
-def _look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
-    f = target - eye
-    f = f / np.linalg.norm(f)
-    s = np.cross(f, up)
-    s /= np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def _ortho(half: float, near: float, far: float) -> np.ndarray:
-    m = np.eye(4)
-    m[0, 0] = m[1, 1] = 1.0 / half
-    m[2, 2] = -2.0 / (far - near)
-    m[2, 3] = -(far + near) / (far - near)
-    return m
-
-
-_BIAS = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
-
-
-def _gl(m: np.ndarray) -> bytes:
-    """Row-major NumPy matrix -> column-major float32 bytes for a GLSL mat4 uniform."""
-    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
-
+from ..gl import GLContext
+from ..models import Model
 
 #: the vertex buffer's attributes in order, with their float counts (models and the plane)
 VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_color", 4), ("in_material", 2))
 
 
-def _layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -> tuple:
+def vertex_layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -> tuple:
     """A vertex_array content entry for ``buffer`` holding ``attributes`` ((name, floats), in
     order): the ones ``prog`` reads, the others skipped (a variant may not read them all)."""
     parts, names = [], []
@@ -57,7 +28,7 @@ def _layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -> tupl
 
 
 @dataclass(frozen=True)
-class _GpuMaps:
+class GpuMaps:
     """The textures of one part: sRGB base colour and linear tangent-space normal map."""
 
     base: moderngl.Texture | None
@@ -74,7 +45,41 @@ def _mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
     return tex
 
 
-class _GpuModel:
+class _Mesh:
+    """Triangles on the GPU: a vertex buffer in :data:`VERTEX_LAYOUT`, a uint32 index buffer and
+    optionally a buffer of tangents (``in_tangent``, 4 floats a vertex); a vertex array for each
+    program that draws them."""
+
+    def __init__(self, gl: GLContext, vertices: bytes, indices: bytes, tangents: bytes | None = None) -> None:
+        self._gl = gl
+        self._vbo = gl.own(gl.ctx.buffer(vertices))
+        self._ibo = gl.own(gl.ctx.buffer(indices))
+        self._tbo = gl.own(gl.ctx.buffer(tangents)) if tangents is not None else None
+        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+
+    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
+        """The vertex array of this mesh for ``prog`` (made on first use)."""
+        if prog not in self._vaos:
+            fmt = [vertex_layout(prog, self._vbo, VERTEX_LAYOUT)]
+            if self._tbo is not None and prog.get("in_tangent", None) is not None:
+                fmt.append(vertex_layout(prog, self._tbo, (("in_tangent", 4),)))
+            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
+                                                                      index_element_size=4))
+        return self._vaos[prog]
+
+
+class GroundPlane(_Mesh):
+    """The unit square [-1, 1]^2 at z = 0, facing +z, white and untextured: each object's local
+    ground plane, placed by :meth:`~synthcompose.render.RenderObject.plane_matrix`."""
+
+    def __init__(self, gl: GLContext) -> None:
+        plane = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+        pdata = np.concatenate([plane, np.tile([0, 0, 1], (4, 1)), np.zeros((4, 2)), np.ones((4, 4)),
+                                np.zeros((4, 2))], axis=1).astype(np.float32)
+        super().__init__(gl, pdata.tobytes(), np.array([0, 1, 2, 0, 2, 3], np.uint32).tobytes())
+
+
+class GpuModel(_Mesh):
     """One model on the GPU: all its parts in one vertex and one index buffer, a vertex array
     for each program that draws it.
 
@@ -95,21 +100,18 @@ class _GpuModel:
                                         axis=1).astype(np.float32))
             indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
             first += len(part.positions)
-            maps = _GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
+            maps = GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
             if part.normal_texture is not None and part.tangents is not None:
                 maps = replace(maps, normal=_mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
             if has_tangents:
                 tangents.append(np.zeros((len(part.positions), 4), np.float32) if maps.normal is None
                                 else np.asarray(part.tangents, np.float32))
             maps_of.append(maps)
-        self._gl = gl
-        self._vbo = gl.own(gl.ctx.buffer(np.concatenate(datas).tobytes()))
-        self._ibo = gl.own(gl.ctx.buffer(np.concatenate(indices).tobytes()))
-        self._tbo = gl.own(gl.ctx.buffer(np.concatenate(tangents).tobytes())) if has_tangents else None
-        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+        super().__init__(gl, np.concatenate(datas).tobytes(), np.concatenate(indices).tobytes(),
+                         np.concatenate(tangents).tobytes() if has_tangents else None)
         self._programs = programs
         #: (first index, index count, maps) of each lit draw
-        self.ranges: list[tuple[int, int, _GpuMaps]] = []
+        self.ranges: list[tuple[int, int, GpuMaps]] = []
         start = 0
         for idx, maps in zip(indices, maps_of):
             plain = maps.base is None and maps.normal is None
@@ -120,26 +122,6 @@ class _GpuModel:
                 self.ranges.append((start, len(idx), maps))
             start += len(idx)
 
-    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
-        """The vertex array of this model for ``prog`` (made on first use)."""
-        if prog not in self._vaos:
-            fmt = [_layout(prog, self._vbo, VERTEX_LAYOUT)]
-            if self._tbo is not None and prog.get("in_tangent", None) is not None:
-                fmt.append(_layout(prog, self._tbo, (("in_tangent", 4),)))
-            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
-                                                                      index_element_size=4))
-        return self._vaos[prog]
-
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""
         self.vao(self._programs[name]).render(moderngl.TRIANGLES)
-
-
-def _set_recolour(prog: moderngl.Program, recolour) -> None:
-    """lit.glsl's recolour uniforms for one object (its paint or clothes)."""
-    keys, rgbs = np.zeros((3, 4), np.float32), np.zeros((3, 3), np.float32)
-    for i, (key, rgb) in enumerate(recolour[:3]):
-        keys[i], rgbs[i] = key, rgb
-    prog["u_recolour_n"].value = min(len(recolour), 3)
-    prog["u_recolour_key"].write(keys.tobytes())
-    prog["u_recolour_rgb"].write(rgbs.tobytes())

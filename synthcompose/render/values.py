@@ -10,9 +10,9 @@ from typing import Sequence
 import moderngl
 import numpy as np
 
-from .camera import Camera
-from .gl import GLContext
-from .models import Model
+from ..camera import Camera
+from ..gl import GLContext
+from ..models import Model
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 

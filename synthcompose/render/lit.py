@@ -1,0 +1,166 @@
+"""lit.glsl, the lit pass's programs: the uniforms and textures of one render (the light, its
+depth maps, the photo and its reflection), the program variant for a ground plane or for a run
+of parts with the same maps, and the draw of the planes and the objects over them.
+
+Texture units of lit.glsl's samplers: 0 base colour, 1 sun map, 2 sky map, 3 photo (ROI crop),
+4 environment (reflections), 5 sun mask, 6 normal map, 13 undersides (contact shadows).
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+import cv2
+import moderngl
+import numpy as np
+
+from ..camera import Camera
+from ..gl import GLContext
+from ..models import Model
+from .gpu_model import GpuMaps, GpuModel, GroundPlane
+from .transforms import TEXTURE_FROM_CLIP, gl_mat4
+from .values import Lighting, RenderObject
+
+GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
+_UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (contact shadows)
+#: the sky's occlusion on the ground is averaged over discs of this radius and 2.5 times it
+#: (metres): under an overcast sky an object shades the ground around it over about its height
+SKY_RADIUS = 0.5
+#: contact shadow: ground under a part of an object lower than about this (metres) loses most
+#: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
+CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
+
+
+def environment(gl: GLContext, photo: np.ndarray) -> moderngl.Texture:
+    """The photo at half size as a mipmapped sRGB texture (reads linear): what glossy paint
+    and glass reflect (shaders/lit.glsl, environment())."""
+    h, w = photo.shape[:2]
+    small = cv2.resize(photo, (max(w // 2, 1), max(h // 2, 1)), interpolation=cv2.INTER_AREA)
+    tex = gl.own(gl.ctx.texture((small.shape[1], small.shape[0]), 3, np.ascontiguousarray(small).tobytes(),
+                                internal_format=GL_SRGB8))
+    tex.build_mipmaps()
+    tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    tex.repeat_x = tex.repeat_y = False
+    return tex
+
+
+def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting: Lighting, light: Sequence,
+                   env: moderngl.Texture | None, has_sun_mask: bool) -> dict[str, object]:
+    """What every lit variant takes in one render: ``camera`` the full frame's, ``view`` and
+    ``proj`` the ROI's; ``light`` (half, sun, sky, under) from
+    :func:`~synthcompose.render.shadows.light_matrices`; ``env`` the photo's reflection
+    texture (:func:`environment`), None without a photo."""
+    half, sun_mat, sky_mat, under_mat = light
+    uniforms: dict[str, object] = {
+        "u_view": gl_mat4(view), "u_proj": gl_mat4(proj), "u_camera_pos": tuple(camera.position),
+        "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
+        "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
+        "u_sun_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sun_mat), "u_sky_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sky_mat),
+        "u_sky_radius": SKY_RADIUS / (2 * half),  # in map units
+        "u_under_map": _UNDER_UNIT, "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
+        "u_under_range": 2 * half + 10.0 - 0.1,  # metres the under map's depth 0..1 spans
+        "u_self_bias": 0.05 / (2 * half + 10.0 - 0.1),
+        "u_contact_height": CONTACT_HEIGHT, "u_contact_radius": CONTACT_RADIUS / (2 * half),
+        "u_texture": 0, "u_normal_map": 6, "u_sun_map": 1, "u_sky_map": 2, "u_photo": 3,
+        "u_plane_from_photo": env is not None,
+        # reflections sample the full photo (see environment)
+        "u_env": 4, "u_has_env": env is not None,
+        "u_sun_mask": 5, "u_has_sun_mask": has_sun_mask,
+    }
+    if env is not None:
+        uniforms.update({
+            "u_env_view": gl_mat4(camera.optical_from_vehicle),
+            "u_env_k": (camera.fx / camera.width, camera.fy / camera.height,
+                        (camera.u0 + 0.5) / camera.width, (camera.v0 + 0.5) / camera.height),
+            "u_env_lods": float(math.log2(max(env.width, env.height)))})
+    return uniforms
+
+
+def bind_inputs(blank: moderngl.Texture, shadow_textures: Sequence[moderngl.Texture],
+                photo: moderngl.Texture | None, env: moderngl.Texture | None,
+                sun_mask: moderngl.Texture | None) -> None:
+    """Bind one render's textures to lit.glsl's units (``blank`` where there is none: every
+    active sampler must see a texture of its own kind); ``shadow_textures``: sun, sky, under."""
+    (env if env is not None else blank).use(4)
+    (sun_mask if sun_mask is not None else blank).use(5)
+    shadow_textures[0].use(1)
+    shadow_textures[1].use(2)
+    shadow_textures[2].use(_UNDER_UNIT)
+    (photo if photo is not None else blank).use(3)
+    blank.use(0)
+    blank.use(6)
+
+
+def set_recolour(prog: moderngl.Program, recolour) -> None:
+    """lit.glsl's recolour uniforms for one object (its paint or clothes)."""
+    keys, rgbs = np.zeros((3, 4), np.float32), np.zeros((3, 3), np.float32)
+    for i, (key, rgb) in enumerate(recolour[:3]):
+        keys[i], rgbs[i] = key, rgb
+    prog["u_recolour_n"].value = min(len(recolour), 3)
+    prog["u_recolour_key"].write(keys.tobytes())
+    prog["u_recolour_rgb"].write(rgbs.tobytes())
+
+
+class LitDraw:
+    """Draws with lit.glsl: the ground planes (``plane``) and the objects (their models from
+    ``gpu_model``), with the uniforms of the render under way (:attr:`uniforms`)."""
+
+    def __init__(self, gl: GLContext, plane: GroundPlane, gpu_model: Callable[[Model], GpuModel]) -> None:
+        self.gl = gl
+        self.plane = plane
+        self._gpu_model = gpu_model
+        self.uniforms: dict[str, object] = {}  # what every lit variant takes in this render
+
+    def program(self, plane: bool, shadows: bool = True, maps: GpuMaps | None = None) -> moderngl.Program:
+        """The lit.glsl variant for a ground plane (``shadows`` False: Ir) or for object parts
+        with ``maps``, with this render's uniforms (:attr:`uniforms`) set."""
+        defines = {"PLANE": 1} if plane else {}
+        if plane and not shadows:
+            defines["NO_SHADOWS"] = 1
+        if maps is not None and maps.base is not None:
+            defines["TEXTURE"] = 1
+        if maps is not None and maps.normal is not None:
+            defines["NORMAL_MAP"] = 1
+        prog = self.gl.program("lit", **defines)
+        for name, value in self.uniforms.items():
+            uniform = prog.get(name, None)  # a variant may not use it
+            if uniform is None:
+                continue
+            if isinstance(value, bytes):
+                uniform.write(value)
+            else:
+                uniform.value = value
+        return prog
+
+    def draw(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
+             shadows: bool = True) -> None:
+        """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
+        (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
+        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`)."""
+        prog = self.program(plane=True, shadows=shadows)
+        vao = self.plane.vao(prog)
+        for obj in objects:
+            prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
+            prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
+            prog["u_sun_scale"].value = float(obj.sun_visibility)
+            vao.render(moderngl.TRIANGLES)
+        if not objects_too:
+            return
+        # objects drawn over their planes
+        variants: dict[tuple[bool, bool], moderngl.Program] = {}
+        for obj in objects:
+            gpu = self._gpu_model(obj.model)
+            for first, count, maps in gpu.ranges:
+                key = (maps.base is not None, maps.normal is not None)
+                if key not in variants:
+                    variants[key] = self.program(plane=False, maps=maps)
+                prog = variants[key]
+                prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
+                prog["u_sun_scale"].value = float(obj.sun_visibility)
+                set_recolour(prog, obj.recolour)
+                if maps.base is not None:
+                    maps.base.use(0)
+                if maps.normal is not None:
+                    maps.normal.use(6)
+                    prog["u_normal_scale"].value = maps.normal_scale
+                gpu.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)

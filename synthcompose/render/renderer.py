@@ -1,0 +1,143 @@
+"""The :class:`Renderer`: one render's order of work. The ROI's inputs (photo crop, its
+reflection, the sun mask), the light's depth maps (:mod:`.shadows`), the lit pass Irpv and the
+planes alone Ir, shaded per sample or per pixel (:mod:`.shading`) and resolved into textures,
+then the integer ids at pixel centres; the passes are listed in :mod:`synthcompose.render`."""
+from __future__ import annotations
+
+from typing import Sequence
+
+import moderngl
+import numpy as np
+
+from ..camera import Camera
+from ..gl import GLContext
+from ..models import Model
+from .gpu_model import GpuModel, GroundPlane
+from .lit import LitDraw, bind_inputs, environment, frame_uniforms
+from .shading import SHADING, FillPrograms, PerPixel, PerSample, device_shading
+from .shadows import ShadowMaps, light_matrices
+from .transforms import gl_mat4
+from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_camera, roi_for
+
+
+def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl.Texture], *done) -> None:
+    """Average the samples of the multisampled framebuffer ``source`` into ``targets``
+    (textures), then free ``source`` and ``done`` (its renderbuffers no longer needed)."""
+    resolve = gl.own(gl.ctx.framebuffer(targets))
+    gl.wait()
+    gl.ctx.copy_framebuffer(resolve, source)
+    for obj in (resolve, source, *done):
+        gl.free(obj)
+
+
+class Renderer:
+    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
+
+    def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto") -> None:
+        """``shading``: "sample" runs the lighting for every sample of the 4x multisampled lit
+        pass; "pixel" once per pixel, at its centre, then fills the samples (fill.glsl) - on
+        llvmpipe, which shades every sample, the lit pass takes about a third of the time, at
+        the cost of parts thinner than a pixel (a window seal) showing in pieces; "auto": per
+        pixel on a software renderer (llvmpipe), per sample on a GPU."""
+        if shading not in SHADING:
+            raise ValueError(f"shading must be one of {', '.join(SHADING)}, not {shading!r}")
+        self.gl = gl.activate()
+        if shading == "auto":
+            shading = device_shading(gl.renderer_name)
+        self.shading = shading
+        self.programs = {"id": gl.program("id"), "depth": gl.program("depth")}
+        fill = FillPrograms.compile(gl) if shading == "pixel" else None
+        if fill is not None:
+            self.programs["fill"] = fill.objects  # the models draw their samples with it
+        self._models: dict[str, GpuModel] = {}
+        # bound to sampler units that have nothing to show: every active sampler of a draw
+        # must see a texture of its own kind (another pass may have left an integer one)
+        self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
+        self.shadows = ShadowMaps(gl, shadow_size)
+        self._lit = LitDraw(gl, GroundPlane(gl), self._gpu_model)
+        self._shading = PerSample(gl, self._lit) if fill is None else PerPixel(gl, fill, self._lit, self._gpu_model)
+
+    def _gpu_model(self, model: Model) -> GpuModel:
+        if model.key not in self._models:
+            self._models[model.key] = GpuModel(self.gl, model, self.programs)
+        return self._models[model.key]
+
+    def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
+               photo: np.ndarray | None = None, roi: Roi | None = None,
+               sun_mask: np.ndarray | None = None) -> RenderPasses | None:
+        """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
+
+        ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
+        their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
+        passes as ``photo`` for the compose stage. ``sun_mask`` (H, W) float, full frame: the sun
+        reaching the real ground at each pixel (0 in its real shadows, lighting.py); the planes
+        use it instead of their object's ``sun_visibility``.
+        """
+        roi = roi or roi_for(camera, objects, lighting)
+        if roi is None:
+            return None
+        gl, ctx = self.gl.activate(), self.gl.ctx
+        cam = crop_camera(camera, roi)
+        size = (roi.width, roi.height)
+        tex: dict[str, moderngl.Texture] = {}
+        if photo is not None:
+            rows, cols = roi.slices
+            tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
+            tex["env"] = environment(gl, photo)  # reflections (lit.glsl: environment)
+        if sun_mask is not None:
+            rows, cols = roi.slices
+            tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
+        view = cam.optical_from_vehicle
+        proj = cam.gl_projection(NEAR, FAR)
+        light = light_matrices(objects, lighting)  # half, sun, sky, under
+        self.shadows.draw(objects, light[1:], self._gpu_model)
+        self._lit.uniforms = frame_uniforms(camera, view, proj, lighting, light, tex.get("env"), sun_mask is not None)
+        bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), tex.get("env"), tex.get("sun_mask"))
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+
+        # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
+        # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
+        # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
+        ms, ms_depth, ms_fbo = self._shading.lit_pass(objects, lighting, size, view, proj)
+        tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
+                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4))})
+        # freed once resolved, but for the colour target ms[0] and the depth: they serve Ir
+        _resolve(gl, ms_fbo, [tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]], *ms[1:])
+        # Ir: the planes alone, unshadowed, made as Irpv's planes were (shaded per sample, or
+        # once per pixel and filled), so that the two agree where a plane covers part of a pixel
+        source = self._shading.ir_source(objects, lighting, size)
+        ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
+        ms_fbo_ir.use()
+        ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._shading.draw_ir(objects, lighting, source)
+        tex["ir"] = gl.texture(size, 4, dtype="f4")
+        _resolve(gl, ms_fbo_ir, [tex["ir"]], ms_depth, ms[0])
+        tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
+        return RenderPasses(roi, cam, tex, gl)
+
+    def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
+        """The id pass: (uint object index 1..K at each pixel centre, 0 = none; its depth)."""
+        gl, ctx = self.gl, self.gl.ctx
+        ids = gl.texture(size, 1, dtype="u4")
+        id_depth = gl.texture(size, 1, dtype="f4")
+        id_depth_rb = gl.own(ctx.depth_renderbuffer(size))
+        id_fbo = gl.own(ctx.framebuffer([ids, id_depth], id_depth_rb))
+        id_fbo.use()
+        id_fbo.clear(depth=1.0)
+        ids.write(np.zeros(size[::-1], np.uint32))  # clear() cannot clear integer targets
+        idp = self.programs["id"]
+        idp["u_view"].write(gl_mat4(view))
+        idp["u_proj"].write(gl_mat4(proj))
+        for k, obj in enumerate(objects, start=1):
+            idp["u_model"].write(gl_mat4(obj.vehicle_from_object))
+            idp["u_id"].value = k
+            self._gpu_model(obj.model).draw("id")
+        for obj in (id_fbo, id_depth_rb):
+            gl.free(obj)
+        return ids, id_depth
+
+    def release(self, passes: RenderPasses) -> None:
+        self.gl.activate()
+        for t in passes.textures.values():
+            self.gl.free(t)

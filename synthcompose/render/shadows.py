@@ -1,0 +1,71 @@
+"""The light's views of the objects: three depth maps drawn before the lit pass (the sun's
+shadow map, the sky-occlusion map seen from straight above, and the objects' undersides seen
+from straight below, for contact shadows), and the matrices that make them (vehicle frame ->
+light clip space, orthographic, around the objects and their planes)."""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import moderngl
+import numpy as np
+
+from ..gl import GLContext
+from ..models import Model
+from .gpu_model import GpuModel
+from .transforms import gl_mat4, look_at, ortho
+from .values import Lighting, RenderObject
+
+
+def light_matrices(objects: Sequence[RenderObject], lighting: Lighting) -> list:
+    """[half, sun, sky, under]: the half size (metres) of the square every light view covers,
+    then the (4, 4) vehicle -> clip matrices of the sun's view, the view from above and the
+    view from below."""
+    pts = np.concatenate([o.corners(lighting) for o in objects])
+    centre = (pts.min(0) + pts.max(0)) / 2
+    half = float(np.linalg.norm(pts - centre, axis=1).max()) + 0.1
+    mats = [half]
+    for direction in (np.asarray(lighting.sun_direction, float), np.array([0.0, 0.0, 1.0]),
+                      np.array([0.0, 0.0, -1.0])):
+        direction = direction / np.linalg.norm(direction)
+        up = np.array([1.0, 0, 0]) if abs(direction[2]) > 0.99 else np.array([0, 0, 1.0])
+        view = look_at(centre + direction * (half + 5.0), centre, up)
+        mats.append(ortho(half, 0.1, 2 * half + 10.0) @ view)
+    return mats
+
+
+class ShadowMaps:
+    """The three depth maps (``shadow_size`` square) and their framebuffers: :attr:`maps`,
+    (texture, framebuffer) of the sun, the sky and the undersides."""
+
+    def __init__(self, gl: GLContext, shadow_size: int) -> None:
+        ctx = gl.ctx
+        self.gl = gl
+        self.maps: list[tuple[moderngl.Texture, moderngl.Framebuffer]] = []
+        for k in range(3):  # sun map, top-down sky-occlusion map, the objects' undersides from below
+            tex = gl.own(ctx.depth_texture((shadow_size, shadow_size)))
+            # the first two are shadow tests; the third is read as depth: how high the lowest
+            # part of an object stands over each ground point (contact shadows, lit.glsl)
+            tex.compare_func = "<=" if k < 2 else ""
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            fbo = gl.own(ctx.framebuffer(depth_attachment=tex))
+            self.maps.append((tex, fbo))
+
+    @property
+    def textures(self) -> tuple[moderngl.Texture, ...]:
+        """The sun's, the sky's and the undersides' depth textures."""
+        return tuple(tex for tex, _ in self.maps)
+
+    def draw(self, objects: Sequence[RenderObject], mats, gpu_model: Callable[[Model], GpuModel]) -> None:
+        """Draw ``objects`` (their models uploaded by ``gpu_model``) into each map with the depth
+        program, seen through ``mats`` (sun, sky, under: :func:`light_matrices`)."""
+        ctx = self.gl.ctx
+        prog = self.gl.program("depth")
+        for (tex, fbo), light in zip(self.maps, mats):
+            fbo.use()
+            fbo.clear(depth=1.0)
+            ctx.enable(moderngl.DEPTH_TEST)
+            prog["u_light"].write(gl_mat4(light))
+            for obj in objects:
+                prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
+                gpu_model(obj.model).draw("depth")
