@@ -49,6 +49,7 @@ from .errors import InputError
 from .fileio import read_json, write_json
 from .placement import box_corners
 from .polygons import frame_polygons, mask_polygon
+from .record import ImageSetRecord, ObjectRecord, read_record
 from .render import Roi
 
 log = logging.getLogger("synthcompose")
@@ -125,14 +126,14 @@ def _polygon_entries(source: Path, data: Any) -> list[dict[str, Any]]:
     return data["objects"]
 
 
-def polygons_document(source: Path | None, objects: Sequence[dict], visible: np.ndarray,
+def polygons_document(source: Path | None, objects: Sequence[ObjectRecord], visible: np.ndarray,
                       label_ids: np.ndarray, instance_ids: np.ndarray) -> dict[str, Any]:
     """The gtFine polygons JSON of an augmented image set: it draws back (cityscapesScripts)
     to the written ``label_ids`` and ``instance_ids``.
 
     ``source``: the input set's ``gtFine_polygons.json`` or None. With it, its entries are
-    copied (any extra top-level keys kept) and each inserted object (``objects``: the record's
-    entries, ``index``, ``class``, ``instance_id``) is appended as one entry, its visible pixels
+    copied (any extra top-level keys kept) and each inserted object (``objects``: their
+    records) is appended as one entry, its visible pixels
     (``visible`` (H, W) uint8: index of the object seen at each pixel), in instance-id order.
     Without it, the whole frame is described from ``label_ids`` / ``instance_ids``
     (:func:`polygons.frame_polygons`).
@@ -148,10 +149,10 @@ def polygons_document(source: Path | None, objects: Sequence[dict], visible: np.
         raise InputError(source, f"polygons JSON is for {data.get('imgWidth')}x{data.get('imgHeight')} "
                                  f"but the image is {w}x{h}")
     doc = dict(data) | {"objects": list(entries)}
-    for obj in sorted(objects, key=lambda o: (int(o["instance_id"]), int(o["index"]))):
-        poly = mask_polygon(visible == obj["index"])
+    for obj in sorted(objects, key=lambda o: (o.instance_id, o.index)):
+        poly = mask_polygon(visible == obj.index)
         if poly is not None:
-            doc["objects"].append({"label": obj["class"], "polygon": poly})
+            doc["objects"].append({"label": obj.class_name, "polygon": poly})
     return doc
 
 
@@ -221,11 +222,12 @@ def truncation(camera: Camera, vehicle_from_object: np.ndarray, extents: Sequenc
     return round(float(np.clip(1.0 - cw * ch / full, 0.0, 1.0)), 4)
 
 
-def bbox3d_document(camera: Camera, objects: Sequence[dict], source: Path | None = None) -> dict[str, Any]:
+def bbox3d_document(camera: Camera, objects: Sequence[ObjectRecord], poses: Sequence[np.ndarray],
+                    source: Path | None = None) -> dict[str, Any]:
     """The gtBbox3d JSON of an augmented image set.
 
-    ``objects``: the record's object entries (with ``bbox_2d``, ``bbox_2d_amodal``, pose,
-    extents); those seen in no pixel are left out. ``source``: the input set's own
+    ``objects``: the objects' records; ``poses``: each one's placement matrix (V <- object,
+    4x4, as placed, not as rounded in the record); objects seen in no pixel are left out. ``source``: the input set's own
     gtBbox3d file or None; its ``objects`` and ``ignore`` entries are copied first,
     unchanged (their modal boxes do not account for the inserted objects).
     """
@@ -238,53 +240,37 @@ def bbox3d_document(camera: Camera, objects: Sequence[dict], source: Path | None
             raise InputError(source, "gtBbox3d JSON must be an object with 'objects' and 'ignore' lists")
         doc["objects"] = list(data.get("objects", []))
         doc["ignore"] = list(data.get("ignore", []))
-    for obj in objects:
-        if obj.get("bbox_2d") is None or obj.get("bbox_2d_amodal") is None:
+    for obj, pose in zip(objects, poses):
+        if obj.bbox_2d is None or obj.bbox_2d_amodal is None:
             continue
-        pose = np.array(obj["pose"]["vehicle"]["matrix"], float)
+        pose = np.asarray(pose, float)
         doc["objects"].append({
-            "2d": {"modal": xywh(obj["bbox_2d"]), "amodal": xywh(obj["bbox_2d_amodal"])},
-            "3d": box3d(pose, obj["extents_m"]) | {"type": obj["name"], "format": "CRS_ISO8855"},
-            "occlusion": obj["occluded_fraction"],
-            "truncation": truncation(camera, pose, obj["extents_m"]),
-            "instanceId": obj["instance_id"],
-            "label": obj["class"],
+            "2d": {"modal": xywh(obj.bbox_2d), "amodal": xywh(obj.bbox_2d_amodal)},
+            "3d": box3d(pose, obj.extents_m) | {"type": obj.name, "format": "CRS_ISO8855"},
+            "occlusion": obj.occluded_fraction,
+            "truncation": truncation(camera, pose, obj.extents_m),
+            "instanceId": obj.instance_id,
+            "label": obj.class_name,
             "score": 1.0,
         })
     return doc
 
 
-# ------------------------------------------------------------------ per image set: records
-def annotate_objects(record: dict[str, Any], visible: np.ndarray, amodal: Sequence[Box | None],
-                     ident: ImageSetId) -> None:
-    """Add to a done record what the annotation files need, so they can be rebuilt from it.
-
-    Adds ``image`` (file_name relative to the output root, width, height) and, to each
-    object (``index`` k, 1-based), ``bbox_2d_amodal`` (``amodal[k - 1]``) and ``mask_rle``
-    (COCO RLE of ``visible == k``; ``visible`` (H, W) uint8 from :class:`Composed`).
-    """
-    h, w = visible.shape
-    record["image"] = {"file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h}
-    for obj in record["objects"]:
-        k = obj["index"]
-        obj["bbox_2d_amodal"] = amodal[k - 1]
-        obj["mask_rle"] = encode_rle(visible == k)
-
-
-def write_frame_annotations(out_root: Path, dataset_root: Path, ident: ImageSetId, record: dict[str, Any],
-                            visible: np.ndarray, label_ids: np.ndarray, instance_ids: np.ndarray,
-                            camera: Camera) -> list[Path]:
+# ------------------------------------------------------------------ per image set: files
+def write_frame_annotations(out_root: Path, dataset_root: Path, ident: ImageSetId, objects: Sequence[ObjectRecord],
+                            poses: Sequence[np.ndarray], visible: np.ndarray, label_ids: np.ndarray,
+                            instance_ids: np.ndarray, camera: Camera) -> list[Path]:
     """Write the polygons and gtBbox3d files of one augmented image set; returns their paths.
 
-    ``record``: the set's record after :func:`annotate_objects`; the input set's polygons
-    and gtBbox3d files under ``dataset_root`` are merged in when they exist; ``label_ids`` /
-    ``instance_ids``: the written label images (the polygons describe them).
+    ``objects``: the objects' records, ``poses`` their placement matrices; the input set's
+    polygons and gtBbox3d files under ``dataset_root`` are merged in when they exist;
+    ``label_ids`` / ``instance_ids``: the written label images (the polygons describe them).
     """
     src_poly = ident.path(dataset_root, "polygons")
     src_3d = bbox3d_path(dataset_root, ident)
-    polygons = polygons_document(src_poly if src_poly.is_file() else None, record["objects"], visible, label_ids,
+    polygons = polygons_document(src_poly if src_poly.is_file() else None, objects, visible, label_ids,
                                  instance_ids)
-    boxes = bbox3d_document(camera, record["objects"], src_3d if src_3d.is_file() else None)
+    boxes = bbox3d_document(camera, objects, poses, src_3d if src_3d.is_file() else None)
     paths = [ident.path(out_root, "polygons"), bbox3d_path(out_root, ident)]
     write_json(paths[0], polygons)
     write_json(paths[1], boxes)
@@ -302,19 +288,19 @@ def coco_document(out_root: Path) -> dict[str, Any]:
     images, annotations, classes = [], [], {}
     for path in sorted((Path(out_root) / "synthcompose").rglob("*_synthcompose.json")):
         try:
-            record = read_json(path)
-        except InputError as exc:  # a damaged record: its image set is not complete
+            record = read_record(path)
+        except InputError as exc:  # a damaged or malformed record (hand-edited, another tool's)
             log.warning("%s; left out of %s", exc, COCO_NAME)
             continue
-        if not isinstance(record, dict) or record.get("status") != "done":
+        if not record.done:
+            continue
+        if record.image is None or any(o.mask_rle is None for o in record.objects):
+            log.warning("%s: record has no masks (written by an older version); left out of %s", path, COCO_NAME)
             continue
         try:
             image, objects = _coco_entries(record, len(images) + 1, len(annotations))
-        except (KeyError, TypeError, ValueError, IndexError) as exc:  # hand-edited, or another tool's
+        except (KeyError, TypeError, ValueError) as exc:
             log.warning("%s: record is malformed (%s: %s); left out of %s", path, type(exc).__name__, exc, COCO_NAME)
-            continue
-        if image is None:
-            log.warning("%s: record has no masks (written by an older version); left out of %s", path, COCO_NAME)
             continue
         images.append(image)
         for ann, name in objects:
@@ -326,27 +312,24 @@ def coco_document(out_root: Path) -> dict[str, Any]:
             "licenses": [], "images": images, "annotations": annotations, "categories": categories}
 
 
-def _coco_entries(record: dict, image_id: int, first: int) -> tuple[dict | None, list[tuple[dict, str]]]:
+def _coco_entries(record: ImageSetRecord, image_id: int, first: int) -> tuple[dict, list[tuple[dict, str]]]:
     """The COCO image of a done record and its annotations (with their class names), numbered
-    from ``image_id`` and ``first`` + 1; (None, []) for a record without masks. Raises
-    KeyError / TypeError / ValueError on a malformed record."""
-    objects = record.get("objects", [])
-    if "image" not in record or any("mask_rle" not in o for o in objects):
-        return None, []
-    im = record["image"]
+    from ``image_id`` and ``first`` + 1. Raises KeyError / TypeError / ValueError on a record
+    whose values are not what it says."""
+    im = record.image
     image = {"id": image_id, "file_name": str(im["file_name"]), "width": int(im["width"]),
-             "height": int(im["height"]), "image_set": str(record["image_set"])}
+             "height": int(im["height"]), "image_set": record.image_set}
     anns = []
-    for obj in objects:
-        if not obj.get("visible_pixels") or obj.get("bbox_2d") is None:
+    for obj in record.objects:
+        if not obj.visible_pixels or obj.bbox_2d is None:
             continue
-        if str(obj["class"]) not in name2label:
-            raise ValueError(f"unknown class {obj['class']!r}")
+        if obj.class_name not in name2label:
+            raise ValueError(f"unknown class {obj.class_name!r}")
         anns.append(({
-            "id": first + len(anns) + 1, "image_id": image_id, "category_id": int(obj["label_id"]),
-            "bbox": xywh(obj["bbox_2d"]), "area": int(obj["visible_pixels"]),
-            "segmentation": dict(obj["mask_rle"]), "iscrowd": 0, "instance_id": int(obj["instance_id"]),
-        }, str(obj["class"])))
+            "id": first + len(anns) + 1, "image_id": image_id, "category_id": obj.label_id,
+            "bbox": xywh(list(obj.bbox_2d)), "area": obj.visible_pixels,
+            "segmentation": dict(obj.mask_rle), "iscrowd": 0, "instance_id": obj.instance_id,
+        }, obj.class_name))
     return image, anns
 
 

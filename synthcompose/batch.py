@@ -29,12 +29,13 @@ import numpy as np
 
 from .dataset import ImageSetId, find_image_sets, input_fingerprint
 from .errors import ManifestError, SynthComposeError
-from .fileio import PART_TAG, read_json, write_json
+from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
 from .engines import FAULT_CRASH_ENV, BatchError, _in_process, _process_pool, _ray_engine
 from .pipeline import STAGES, Outcome
+from .record import DONE, NO_PLACEMENT, read_record
 from .writer import discard_outputs, output_paths
 
 log = logging.getLogger("synthcompose")
@@ -123,19 +124,19 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
     if not path.is_file():
         return None
     try:
-        record = read_json(path)
-    except SynthComposeError:
+        record = read_record(path)
+    except SynthComposeError:  # damaged, or not a record: redo the set
         return None
-    if not isinstance(record, dict) or record.get("config_sha256") != manifest.config_hash:
+    if record.config_sha256 != manifest.config_hash:
         return None
-    if record.get("source_fingerprint") != input_fingerprint(manifest.dataset, ident):
+    if dict(record.source_fingerprint) != input_fingerprint(manifest.dataset, ident):
         return None  # an input file changed (or the record predates fingerprints)
     from .placements import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record):
         return None
-    if record.get("status") == "done":
-        return Outcome(ident.key, "done", None, len(record.get("objects", [])), resumed=True)
-    if record.get("status") == "no valid placement":
+    if record.status == DONE:
+        return Outcome(ident.key, "done", None, len(record.objects), resumed=True)
+    if record.status == NO_PLACEMENT:
         return Outcome(ident.key, "skipped", "no valid placement (earlier run)", resumed=True)
     return None
 

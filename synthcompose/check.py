@@ -22,11 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from .dataset import ImageSetId, labelled_twin, read_image_set
-from .fileio import read_json, write_json
+from .fileio import write_json
 from .geometry import make_frame
 from .labels import label_id
 from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, footprint_grid, footprint_support,
                         frame_noise, local_ground, penetration, road_line, scene_clearance)
+from .record import ImageSetRecord, read_record
 from .surfaces import frame_for
 
 #: what the checks require (issue: placement a dataset can trust)
@@ -61,14 +62,14 @@ class ObjectCheck:
         return out
 
 
-def _ident_from_record(record: dict) -> tuple[Path, ImageSetId]:
-    rgb = Path(record["source"]["rgb"])
-    split, city = record["image_set"].split("/")[:2]
-    _, seq, frame = record["image_set"].split("/")[2].rsplit("_", 2)
+def _ident_from_record(record: ImageSetRecord) -> tuple[Path, ImageSetId]:
+    rgb = Path(record.source["rgb"])
+    split, city = record.image_set.split("/")[:2]
+    _, seq, frame = record.image_set.split("/")[2].rsplit("_", 2)
     return rgb.parents[3], ImageSetId(split, city, seq, frame)
 
 
-def check_record(record: dict, rules: PlacementRules = PlacementRules(),
+def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(),
                  truth_root: Path | None = None) -> list[ObjectCheck]:
     """The figures of every object of one record, measured on its input image set with the
     placement's own definitions (footprint support, local ground, clearance, road line); the
@@ -87,10 +88,10 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
             truth = make_frame(frame.depth, t.label_ids, cam)
     noise = frame_noise(frame)
     out = []
-    for obj in record.get("objects", []):
-        m = np.array(obj["pose"]["vehicle"]["matrix"], float)
-        l, w, h = obj["extents_m"]
-        allowed = np.array([label_id(s) for s in obj["allowed_surfaces"]])
+    for obj in record.objects:
+        m = np.array(obj.pose.vehicle, float)
+        l, w, h = obj.extents_m
+        allowed = np.array([label_id(s) for s in obj.allowed_surfaces])
         grid = footprint_grid(l, w)
 
         def share_on(f):
@@ -118,14 +119,14 @@ def check_record(record: dict, rules: PlacementRules = PlacementRules(),
             pen = penetration(pts, m, (l, w, h), scene_clearance(noise, z, rules.clearance))
         # heading against the local road direction
         yaw_err = None
-        if obj.get("orientation") in ("along-road", "parked"):
+        if obj.orientation in ("along-road", "parked"):
             line = road_line(frame, allowed, m[:3, 3])
             if line is not None:
                 diff = math.atan2(m[1, 0], m[0, 0]) - line.angle
                 yaw_err = math.degrees(abs(math.asin(max(-1.0, min(1.0, math.sin(diff))))))
         dist = float(math.hypot(m[0, 3] - cam.x, m[1, 3] - cam.y))
-        out.append(ObjectCheck(record["image_set"], obj["index"], obj["name"], round(share, 4), round(gap, 4),
-                               round(pen, 4), obj.get("occluded_fraction", float("nan")),
+        out.append(ObjectCheck(record.image_set, obj.index, obj.name, round(share, 4), round(gap, 4),
+                               round(pen, 4), obj.occluded_fraction,
                                None if yaw_err is None else round(yaw_err, 2), round(dist, 2),
                                None if truth is None else round(share_on(truth), 4)))
     return out
@@ -135,8 +136,8 @@ def check_output(out_root: Path, truth_root: Path | None = None) -> list[ObjectC
     """Check every record under ``out_root/synthcompose``; writes ``placement_check.json``."""
     results: list[ObjectCheck] = []
     for path in sorted((Path(out_root) / "synthcompose").rglob("*_synthcompose.json")):
-        record = read_json(path)
-        if record.get("status") == "done":
+        record = read_record(path)
+        if record.done:
             results.extend(check_record(record, truth_root=truth_root))
     write_json(Path(out_root) / "placement_check.json",
                {"limits": LIMITS, "objects": [asdict(r) | {"failures": r.failures} for r in results]})

@@ -12,9 +12,10 @@ import numpy as np
 from pycocotools import mask as mask_util
 
 from .batch import select
-from .fileio import read_json, read_png, write_png
+from .fileio import read_png, write_png
 from .look import side_by_side
 from .pipeline import Pipeline
+from .record import ImageSetRecord, read_record
 
 
 def _label(img: np.ndarray, text: str) -> np.ndarray:
@@ -27,8 +28,8 @@ def _label(img: np.ndarray, text: str) -> np.ndarray:
     return np.concatenate([bar, img], axis=0)
 
 
-def _describe(record: dict) -> str:
-    lt = record.get("lighting", {})
+def _describe(record: ImageSetRecord) -> str:
+    lt = record.lighting
     if lt.get("mode") == "estimate":
         if lt.get("sunny"):
             return (f"estimated: sun az {lt['sun_azimuth_deg']:.0f} el {lt['sun_elevation_deg']:.0f} deg, "
@@ -79,8 +80,8 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
             entry["status"] = "failed"
             results.append(entry)
             continue
-        rec = {name: read_json(p) for name, p in records.items()}
-        entry["status"] = rec["estimated"].get("status")
+        rec = {name: read_record(p) for name, p in records.items()}
+        entry["status"] = rec["estimated"].status
         if entry["status"] != "done":
             results.append(entry)
             continue
@@ -114,16 +115,16 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
         # per object: input | output | the nearest real object of its class (labelled frames)
         real_ids = read_png(ident.path(manifest.dataset, "instanceIds"), "gray16").astype(np.int32) \
             if ident.path(manifest.dataset, "instanceIds").is_file() else None
-        for obj in rec["estimated"].get("objects", []):
-            rle = obj.get("mask_rle")
+        for obj in rec["estimated"].objects:
+            rle = obj.mask_rle
             if not rle:
                 continue
             mask = mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)
             if not mask.any():
                 continue
-            path = out_dir / f"{name}_object{obj['index']}_side_by_side.png"
-            write_png(path, side_by_side(src, out["estimated"], mask, real_ids, obj["label_id"]))
+            path = out_dir / f"{name}_object{obj.index}_side_by_side.png"
+            write_png(path, side_by_side(src, out["estimated"], mask, real_ids, obj.label_id))
             entry["written"].append(str(path))
-        entry["lighting"] = rec["estimated"]["lighting"]
+        entry["lighting"] = dict(rec["estimated"].lighting)
         results.append(entry)
     return results

@@ -17,6 +17,7 @@ from .fileio import read_json
 from .labels import label_id
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
+from .placement.rules import orientation_for, surfaces_for
 from .render import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
@@ -111,8 +112,8 @@ class ObjectSpec:
     up: str
     forward: str
     weight: float
-    allowed_surfaces: tuple[str, ...] | None
-    orientation: str | None
+    allowed_surfaces: tuple[str, ...]  # the class's default when the manifest gives none
+    orientation: str  # likewise
     appearance: str = "varied"  # "varied": paint / clothes drawn per object (appearance.py); "model": as modelled
 
 
@@ -202,8 +203,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
             size=tuple((k, float(v)) for k, v in o["size"].items()),
             up=o.get("up", "+y" if not o["model"].startswith(BUILTIN_PREFIX) else "+z"),
             forward=o.get("forward", "+x"), weight=float(o.get("weight", 1.0)),
-            allowed_surfaces=tuple(o["allowed_surfaces"]) if "allowed_surfaces" in o else None,
-            orientation=o.get("orientation"), appearance=o.get("appearance", "varied")))
+            allowed_surfaces=surfaces_for(o["class"], o.get("allowed_surfaces")),
+            orientation=orientation_for(o["class"], o.get("orientation")), appearance=o.get("appearance", "varied")))
     p = data.get("placement", {})
     dist = tuple(float(v) for v in p.get("distance", PlacementRules.distance))
     if dist[0] >= dist[1]:

@@ -20,6 +20,7 @@ import numpy as np
 from .errors import SynthComposeError
 from .gl import GLContext
 from .manifest import Manifest
+from .render.transforms import gl_mat4, look_at, perspective
 from .preview_state import (ACCEPTED_COLOUR, BOX_COLOUR, BOX_EDGES, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PASS_TITLES,
                             PASSES, PLANE_COLOUR, SELECTED_BOX_COLOUR, STEP_M, STEP_YAW_DEG, TEXT_COLOUR, Overlay,
                             PlacementRefused, PreviewSession, box_mesh, plane_quad, view_legend)
@@ -53,31 +54,6 @@ def _import_glfw():
     return glfw
 
 
-def _perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    f = 1.0 / math.tan(math.radians(fovy_deg) / 2)
-    m = np.zeros((4, 4))
-    m[0, 0], m[1, 1] = f / aspect, f
-    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
-
-
-def _look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
-    f = np.asarray(target, float) - eye
-    f /= np.linalg.norm(f)
-    s = np.cross(f, up)
-    s /= max(np.linalg.norm(s), 1e-9)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def _gl(m: np.ndarray) -> bytes:
-    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
-
-
 class Orbit:
     """Orbit camera around a target in the vehicle frame (z up)."""
 
@@ -92,10 +68,10 @@ class Orbit:
                                                        math.sin(self.pitch)])
 
     def matrix(self, aspect: float) -> np.ndarray:
-        return _perspective(50.0, aspect, 0.1, 1000.0) @ _look_at(self.eye, self.target)
+        return perspective(50.0, aspect, 0.1, 1000.0) @ look_at(self.eye, self.target)
 
     def pan(self, dx: float, dy: float) -> None:
-        view = _look_at(self.eye, self.target)
+        view = look_at(self.eye, self.target)
         right, up = view[0, :3], view[1, :3]
         k = self.distance * 0.0015
         self.target = self.target - right * dx * k + up * dy * k
@@ -379,7 +355,7 @@ class PreviewWindow:
         else:
             self.ctx.clear(0.12, 0.12, 0.14, 1.0, depth=1.0)
             self.ctx.enable(moderngl.DEPTH_TEST | moderngl.PROGRAM_POINT_SIZE)
-            self.points["u_mvp"].write(_gl(self.orbit.matrix(fw / max(fh, 1))))
+            self.points["u_mvp"].write(gl_mat4(self.orbit.matrix(fw / max(fh, 1))))
             for vao, mode, size, _ in self._geometry:
                 self.points["u_point_size"].value = size
                 vao.render(mode)

@@ -1,8 +1,8 @@
 """What ``synthcompose preview`` shows, without any window: headless and testable.
 
-A :class:`PreviewSession` runs the batch's own :class:`~synthcompose.pipeline.Pipeline` on
-one image set (through the pipeline's preview hooks: it sees the intermediate results and
-stops before anything is written), keeps them as a :class:`View`, and turns them into the
+A :class:`PreviewSession` runs the batch's own stages (:mod:`synthcompose.stages`: prepare,
+place, shade, with the GL context of a :class:`~synthcompose.pipeline.Pipeline`) on one image
+set, up to the compose (nothing is written), keeps the results as a :class:`View`, and turns them into the
 images of each pass, a PLY file, and saved placements. Every shown pose is checked against
 the batch's placement rules (:func:`~synthcompose.placement.check_pose`): a :class:`Verdict`,
 and :meth:`PreviewSession.save` refuses a pose that breaks one unless forced. :class:`Overlay`
@@ -24,9 +24,10 @@ from .geometry import Frame
 from .colour import linear_to_srgb
 from .labels import COLOR_LUT
 from .manifest import Manifest
-from .placement import ALLOWED_SURFACES, Placement, Rejection, check_pose
-from .placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path,
+from .placement import Placement, Rejection, check_pose
+from .placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
                          write_saved)
+from .stages import place, prepare, shade
 
 #: the passes the preview shows, in key order (1..9)
 PASSES = ("composed", "irpv", "ir", "alpha", "id", "odepth", "scene_depth", "occlusion", "semantic")
@@ -46,10 +47,6 @@ SELECTED_BOX_COLOUR, BOX_COLOUR, PLANE_COLOUR = (255, 255, 0), (255, 60, 60), (0
 STEP_M = 0.25  # arrow keys move the object this far
 STEP_YAW_DEG = 5.0  # Q/E turn it this much
 OK_COLOUR, FAIL_COLOUR, NOTE_COLOUR, TEXT_COLOUR = (90, 230, 90), (255, 80, 80), (255, 210, 90), (235, 235, 235)
-
-
-class _Stop(Exception):
-    """Raised by the capture hook: the preview has what it needs, nothing is written."""
 
 
 class PlacementRefused(SynthComposeError):
@@ -179,49 +176,28 @@ class PreviewSession:
 
     # ----------------------------------------------------------------- running the pipeline
     def load(self, override=None) -> View:
-        """Run the pipeline on the current image set (``override``: see Pipeline.placement_override)."""
+        """Run the batch's stages on the current image set, up to the compose (nothing is
+        written). ``override``: None (the image set's saved placement, if any), IGNORE_SAVED (a
+        random placement), or a SavedPlacement (these poses)."""
         p = self.pipeline
-        p.manifest = replace(self.base, seed=self.base.seed + self.seed_offset)
-        p.placement_override = override
-        p.trace = []
-        got: dict = {}
-
-        def capture(stage: str, values: dict) -> None:
-            got.update(values)
-            if stage == "placement" and not values["placed"]:
-                raise _Stop
-            if stage == "compose":
-                passes = values["passes"]
-                if passes is not None:
-                    got["pass_arrays"] = {k: passes.read(k).copy() for k in
-                                          ("irpv", "ir", "alpha", "odepth", "id") if k in passes.textures}
-                    got["roi"] = (passes.roi.x0, passes.roi.y0, passes.roi.width, passes.roi.height)
-                    p.renderer.release(passes)
-                raise _Stop
-
-        p.capture = capture
-        try:
-            outcome = p._process(self.ident, {})
-        except _Stop:
-            outcome = None
-        finally:
-            p.capture, trace, p.trace = None, p.trace, None
-        if outcome is not None:  # only a bug gets here: the hooks stop before writing
-            raise SynthComposeError(f"preview ran past the compose stage on {self.ident.key}")
-        saved = got.get("saved")
+        m = replace(self.base, seed=self.base.seed + self.seed_offset)
+        saved = read_saved(m.output, self.ident) if override is None else \
+            (None if override is IGNORE_SAVED else override)
+        prep = prepare(m, self.ident, {})
+        trace: list = []
+        placed = place(m, p.weights, prep, {}, saved=saved, trace=trace)
+        shaded = shade(p.renderer, p.composer, m, prep, placed, {}, keep=("irpv", "ir", "alpha", "odepth", "id")) \
+            if placed.objects else None
         source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
-        objects = []
-        for rec in got["records"]:
-            spec, pl = rec["spec"], rec["result"].placement
-            objects.append(PlacedObject(spec.name, spec.class_name, pl, tuple(pl.extents),
-                                        tuple(spec.allowed_surfaces or ALLOWED_SURFACES.get(spec.class_name, ("road",)))))
-        composed = got.get("composed")
-        self.view = View(self.ident, got["image_set"].rgb, got["frame"], objects, got["failures"], trace or [], source,
-                         got.get("pass_arrays", {}), got.get("roi"),
+        objects = [PlacedObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
+                                tuple(o.spec.allowed_surfaces)) for o in placed.objects]
+        composed = None if shaded is None else shaded.composed
+        self.view = View(self.ident, prep.image_set.rgb, prep.frame, objects, list(placed.failures), trace, source,
+                         {} if shaded is None else shaded.passes, None if shaded is None else shaded.roi,
                          None if composed is None else composed.rgb,
                          None if composed is None else composed.label_ids,
                          None if composed is None else composed.visible,
-                         self._verdict(got["frame"], objects))
+                         self._verdict(prep.frame, objects))
         self.selected = min(self.selected, max(len(objects) - 1, 0))
         return self.view
 

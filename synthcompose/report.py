@@ -22,6 +22,7 @@ import numpy as np
 from .errors import InputError
 from .fileio import read_json, read_png, write_bytes_atomic
 from .labels import COLOR_LUT
+from .record import read_record
 
 THUMB_WIDTH = 480
 MAX_THUMBS = 300
@@ -69,8 +70,8 @@ def write_report(out_root: Path) -> Path:
     records = []
     for path in sorted((out_root / "synthcompose").rglob("*_synthcompose.json")):
         try:
-            records.append(read_json(path))
-        except InputError:
+            records.append(read_record(path))
+        except InputError:  # damaged, or not a record
             continue
     summary = read_json(out_root / "summary.json") if (out_root / "summary.json").is_file() else {}
     rep = out_root / "report"
@@ -79,28 +80,28 @@ def write_report(out_root: Path) -> Path:
     reasons: Counter[str] = Counter()
     cards = []
     for record in records:
-        for obj in record.get("objects", []):
-            classes[obj["class"]] += 1
-            reasons.update(obj.get("placement", {}).get("rejections", {}))
-        for miss in record.get("not_placed", []):
+        for obj in record.objects:
+            classes[obj.class_name] += 1
+            reasons.update(obj.placement.get("rejections", {}))
+        for miss in record.not_placed:
             not_placed[miss.get("class", "?")] += 1
             reasons.update(miss.get("rejections", {}))
-        if record.get("status") != "done" or len(cards) >= MAX_THUMBS:
+        if not record.done or len(cards) >= MAX_THUMBS:
             continue
-        key = record["image_set"]
+        key = record.image_set
         split, city, name = key.split("/")
         try:
-            before = read_png(record["source"]["rgb"], "rgb8")
+            before = read_png(record.source["rgb"], "rgb8")
             after = read_png(out_root / "leftImg8bit" / split / city / f"{name}_leftImg8bit.png", "rgb8")
             labels = read_png(out_root / "gtFine" / split / city / f"{name}_gtFine_labelIds.png", "gray8")
-            src_labels = read_png(record["source"]["labelIds"], "gray8") if Path(record["source"]["labelIds"]).is_file() \
+            src_labels = read_png(record.source["labelIds"], "gray8") if Path(record.source["labelIds"]).is_file() \
                 else np.zeros_like(labels)
         except InputError:
             continue
         stem = key.replace("/", "__")
         write_bytes_atomic(rep / "thumbs" / f"{stem}_before.jpg", _thumb(before))
         write_bytes_atomic(rep / "thumbs" / f"{stem}_after.jpg", _thumb(_overlay(after, labels, labels != src_labels)))
-        objs = ", ".join(f"{o['name']} {o['distance_m']:.0f} m" for o in record.get("objects", []))
+        objs = ", ".join(f"{o.name} {o.distance_m:.0f} m" for o in record.objects)
         full = f"../leftImg8bit/{split}/{city}/{name}_leftImg8bit.png"
         cards.append(
             f'<figure><a href="{html.escape(full)}"><img src="thumbs/{stem}_before.jpg" alt="before {html.escape(key)}">'

@@ -20,8 +20,8 @@ from .boxes import (_hides_others, _visibility, box_corners, footprint_corners, 
 from .ground import GroundFit, local_ground
 from .noise import StereoNoise, stereo_noise
 from .road import surface_edges
-from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, KERB_CLEARANCE, MAX_PENETRATION, POSE_GROUND_SEARCH,
-                    SUPPORT_BAND, Placement, PlacementRules, Rejection, label_mask)
+from .rules import (GROUND_LEVEL, KERB_CLEARANCE, MAX_PENETRATION, POSE_GROUND_SEARCH,
+                    SUPPORT_BAND, Placement, PlacementRules, Rejection, label_mask, surfaces_for)
 
 #: a footprint sample is seen when the real depth there is not nearer than the sample by more
 #: than this (relative, absolute) or the stereo band
@@ -221,7 +221,7 @@ def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules
     saved): the first rule it breaks, or None when the batch would have accepted it. ``others``:
     the objects placed before it. Orientation rules (road direction, parked, junctions) are
     about drawing candidates and are not checked."""
-    tests = PoseTests.of(frame, extents, rules, tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",))))
+    tests = PoseTests.of(frame, extents, rules, surfaces_for(class_name, allowed))
     m = np.asarray(matrix, float)
     why = tests.image(m, heights=False)
     if why:

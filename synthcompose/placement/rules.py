@@ -15,6 +15,16 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
 #: default orientation rule per class (others: along-road)
 ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
 ORIENTATIONS = ("along-road", "parked", "face-camera", "random")
+
+
+def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:
+    """The surfaces an object of a class may stand on: ``given``, else the class's default."""
+    return tuple(given) if given else ALLOWED_SURFACES.get(class_name, ("road",))
+
+
+def orientation_for(class_name: str, given: str | None = None) -> str:
+    """An object's orientation rule: ``given``, else the class's default."""
+    return given or ORIENTATION.get(class_name, "along-road")
 #: ground-level labels: where an allowed surface meets another of these there is a kerb line
 GROUND_LEVEL = ("road", "sidewalk", "parking", "rail track", "terrain", "ground")
 #: the footprint must stay this far from a kerb line of its own surface, metres

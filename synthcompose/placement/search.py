@@ -35,8 +35,8 @@ from ..labels import label_id
 from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests
 from .road import road_line
-from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, ORIENTATION, ORIENTATIONS, Placement, PlacementResult,
-                    PlacementRules, Rejection, label_mask)
+from .rules import (GROUND_LEVEL, ORIENTATIONS, Placement, PlacementResult,
+                    PlacementRules, Rejection, label_mask, orientation_for, surfaces_for)
 
 UP = np.array([0.0, 0.0, 1.0])
 #: candidates are drawn among every STRIDE-th pixel of each row and column
@@ -145,8 +145,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
 
     ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
     candidate (the preview shows them); the result does not depend on it."""
-    allowed = tuple(allowed or ALLOWED_SURFACES.get(class_name, ("road",)))
-    orientation = orientation or ORIENTATION.get(class_name, "along-road")
+    allowed = surfaces_for(class_name, allowed)
+    orientation = orientation_for(class_name, orientation)
     if orientation not in ORIENTATIONS:
         raise ValueError(f"unknown orientation {orientation!r}")
     allowed_ids = np.array([label_id(n) for n in allowed])

@@ -1,0 +1,135 @@
+"""Stage 3 - placement: the manifest's objects drawn and placed in one prepared frame
+-> :class:`Placed` (the objects with their poses and instance ids, those that found no place,
+and the record's first part)."""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import __version__
+from ..annotations import polygon_instance_counts
+from ..dataset import ImageSetId, input_fingerprint
+from ..errors import InputError, SynthComposeError
+from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
+from ..lighting import fixed_record
+from ..manifest import Manifest, ObjectSpec
+from ..models import Model, load_model
+from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
+from ..placement.noise import StereoNoise
+from ..placements import SavedPlacement, saved_result
+from ..record import ImageSetRecord
+from .prepare import Prepared
+from .timing import timed
+
+log = logging.getLogger("synthcompose")
+
+def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) -> int:
+    """class_id * 1000 + k with k above every instance of that class in the frame (and in
+    ``taken``); classes without instances keep their plain id (cityscapesScripts rule)."""
+    if not HAS_INSTANCES[class_id]:
+        return class_id
+    ids = np.unique(instance_ids[instance_ids >= INSTANCE_FACTOR])
+    existing = [int(i) % INSTANCE_FACTOR for i in ids if int(i) // INSTANCE_FACTOR == class_id]
+    existing += [i % INSTANCE_FACTOR for i in taken if i // INSTANCE_FACTOR == class_id]
+    k = max(existing, default=-1) + 1
+    if k >= INSTANCE_FACTOR:
+        raise SynthComposeError(f"no free instance id left for class {class_id}")
+    return class_id * INSTANCE_FACTOR + k
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedObject:
+    """One object with a place: its manifest entry, model, pose and instance id."""
+
+    spec: ObjectSpec
+    model: Model
+    result: PlacementResult  # the pose and the candidates' rejections
+    instance_id: int
+    check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+
+    @property
+    def placement(self) -> Placement:
+        return self.result.placement
+
+
+@dataclass(frozen=True, eq=False)
+class Placed:
+    """The placement of one frame."""
+
+    objects: tuple[PlacedObject, ...]
+    failures: tuple[dict, ...]  # name, class, reason, attempts, rejections of each object without a place
+    saved: SavedPlacement | None  # the poses came from a saved placement
+    noise: StereoNoise  # the frame's stereo error: in the record, and the compose's ground band
+    record: ImageSetRecord  # the record so far (no objects, no status)
+
+
+def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
+    """The manifest object a saved placement names (placements.py)."""
+    name = saved.objects[k].name
+    for spec in m.objects:
+        if spec.name == name:
+            return spec
+    raise InputError(saved.path, f"saved placement names object {name!r}, which the manifest does not have "
+                                 f"({', '.join(repr(s.name) for s in m.objects)})")
+
+
+def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
+    """With an input polygons file, the ids its entries number (cityscapesScripts counts them):
+    an inserted instance appended after them gets the next."""
+    source = ident.path(m.dataset, "polygons")
+    if not source.is_file():
+        return set()
+    return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
+
+
+def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
+          saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
+    """Draw ``m.objects_per_image`` objects (by ``weights``) and place each in the frame, the
+    ones placed before it standing; or, with ``saved``, use its objects and poses as they are
+    (the record says whether the rules accept them). ``trace``: a list that gets (candidate
+    point, rejection reason) of every rejected candidate (the preview shows them)."""
+    ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
+    objects: list[PlacedObject] = []
+    failures: list[dict] = []
+    taken = _taken_by_polygons(m, ident)  # instance ids given
+    with timed(timings, "placement"):
+        for k in range(m.objects_per_image if saved is None else len(saved.objects)):
+            spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
+                _saved_spec(m, saved, k)
+            model = load_model(spec.model, spec.size, spec.up, spec.forward)
+            others = [o.placement for o in objects]
+            result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
+                                  spec.orientation, others, trace=trace) \
+                if saved is None else saved_result(frame, spec.class_name, model.extents, saved.objects[k])
+            if result.placement is None:
+                failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
+                                 "attempts": result.attempts, "rejections": result.rejections})
+                continue
+            check = None
+            if saved is not None:  # a saved pose is used as it is; the record says whether the
+                # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
+                why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
+                                 spec.allowed_surfaces, others)
+                check = {"ok": True}
+                if why is not None:
+                    check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+                    log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
+            inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+            taken.add(inst)
+            objects.append(PlacedObject(spec, model, result, inst, check))
+    noise = frame_noise(frame)
+    record = ImageSetRecord(
+        image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
+        source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")},
+        source_fingerprint=input_fingerprint(m.dataset, ident),  # resume: a changed input is redone
+        labels="gtFine" if image_set.labelled else prep.surfaces.to_dict(),
+        stereo_noise=noise.to_dict(),
+        lighting=fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
+        else {"mode": "estimate"},  # the estimate replaces it when the objects are shaded
+        not_placed=tuple(failures),
+        placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
+                                                   "sha256": saved.sha256})
+    return Placed(tuple(objects), tuple(failures), saved, noise, record)
+

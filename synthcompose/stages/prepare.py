@@ -1,0 +1,60 @@
+"""Stages 1-2 and the photo's light: read the image set, its geometry, and what depends on the
+photo alone (the light estimate, the camera's blur, noise and tones) -> :class:`Prepared`."""
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dataset import ImageSet, ImageSetId, read_image_set
+from ..fileio import read_input_bytes
+from ..geometry import Frame, disparity_to_depth
+from ..lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
+from ..lighting.camera import ToneReference
+from ..manifest import Manifest
+from ..surfaces import Surfaces, frame_for
+from .timing import timed
+
+
+def image_set_rng(seed: int, ident: ImageSetId) -> np.random.Generator:
+    """Randomness of one image set: a function of (seed, image-set id) only, never of order."""
+    return np.random.default_rng([seed, zlib.crc32(ident.key.encode())])
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """What depends on the photo alone (read, geometry, lighting): made ahead on a thread."""
+
+    ident: ImageSetId
+    image_set: ImageSet
+    camera_json: bytes
+    depth: np.ndarray  # (H, W) float32 metres, inf where unknown
+    frame: Frame
+    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (surfaces.py)
+    rng: np.random.Generator  # the image set's randomness, after the geometry's draws
+    estimate: LightEstimate | None  # lighting "estimate" mode
+    match: CameraMatch | None  # lighting "camera_match"
+    reference: ToneReference | None  # with camera_match: the tones of the frame's own objects
+
+
+def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepared:
+    """Everything that depends on the photo alone: read, geometry, its light and camera."""
+    with timed(timings, "read"):
+        image_set = read_image_set(m.dataset, ident)
+        camera_json = read_input_bytes(ident.path(m.dataset, "camera"), 1 << 20)
+    with timed(timings, "geometry"):
+        cam = image_set.camera
+        depth = disparity_to_depth(image_set.disparity, cam)
+        rng = image_set_rng(m.seed, ident)
+        # no labels (test split): road and sidewalk found from the disparity and the photo
+        frame, surfaces = frame_for(image_set, depth)
+    with timed(timings, "lighting"):  # the photo's own light, and its camera's blur, noise and tones
+        estimate = match = reference = None
+        if m.lighting_mode == "estimate":
+            estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
+        if m.camera_match:
+            match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
+            reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
+                                              frame.label_ids)
+    return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng, estimate, match, reference)

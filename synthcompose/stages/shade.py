@@ -1,0 +1,129 @@
+"""Stages 4-5 - light, render and compose the placed objects into the photo -> :class:`Shaded`.
+
+The light (the photo's estimate, or the manifest's fixed light) shades the objects; the
+renderer draws them with their ground planes and real shadows; the compose pass puts them into
+the photo by differential rendering with the camera's look, hidden where the real scene is in
+front. Runs on the thread that owns the GL context.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..annotations import amodal_boxes
+from ..appearance import Appearance, appearance_rng, draw_appearance
+from ..camera import Camera
+from ..colour import srgb_to_linear
+from ..compose import Composed, Composer, SceneLayers
+from ..geometry import Frame, occluder_depth
+from ..labels import label_id
+from ..lighting.camera import object_tones
+from ..manifest import Manifest
+from ..placement import GROUND_LEVEL, Placement
+from ..placement.noise import K_SIGMA
+from ..render import RenderObject, Renderer
+from .place import Placed
+from .prepare import Prepared
+from .timing import timed
+
+
+def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: list[int]) -> tuple:
+    """Median linear colour of the real ground seen under and around the object's footprint."""
+    cam, depth = frame.camera, frame.depth
+    l, w, _ = placement.extents
+    gx, gy = np.meshgrid(np.linspace(-1.0, 1.0, 15), np.linspace(-1.0, 1.0, 9))
+    local = np.column_stack([gx.ravel() * l, gy.ravel() * w, np.zeros(gx.size)])
+    m = cam.optical_from_vehicle @ placement.matrix
+    pts = local @ m[:3, :3].T + m[:3, 3]
+    uv = np.rint(cam.project(pts)).astype(int)
+    H, W = depth.shape
+    ok = (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
+    u, v, z = uv[ok, 0], uv[ok, 1], pts[ok, 2]
+    ok2 = np.isin(frame.label_ids[v, u], allowed) & (depth[v, u] >= z * 0.97 - 0.1)
+    if ok2.sum() == 0:
+        return (0.15, 0.15, 0.15)
+    lin = srgb_to_linear(rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
+    return tuple(float(c) for c in np.median(lin, axis=0))
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectLook:
+    """How one placed object was shaded."""
+
+    plane_albedo: tuple  # the real ground's linear colour under it
+    sun_visibility: float  # 0: it stands in a real cast shadow
+    appearance: Appearance  # its paint or clothes
+    camera_look: dict | None  # the camera's tone on it (gain, saturation, reference, targets)
+
+
+@dataclass(frozen=True, eq=False)
+class Shaded:
+    """Everything the write stage needs (no GL object), and the passes asked for."""
+
+    placed: Placed
+    looks: tuple[ObjectLook, ...]
+    record: "object"  # ImageSetRecord: the placement's, with the lighting and camera match
+    composed: Composed
+    amodal: list  # amodal 2D box of each object (annotations)
+    rendered: np.ndarray  # rendered pixels of each object index (0: none)
+    camera: Camera
+    camera_json: bytes
+    passes: dict  # name -> copy of the render pass (ROI-sized), for the passes asked for
+    roi: tuple | None  # (x0, y0, width, height) of the render's ROI
+
+
+def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, placed: Placed,
+          timings: dict[str, float], keep: tuple[str, ...] = ()) -> Shaded:
+    """Light, render and compose ``placed`` (at least one object) into the prepared photo.
+    ``keep``: render passes to copy out before they are released (the preview's)."""
+    image_set, frame, cam = prep.image_set, prep.frame, prep.image_set.camera
+    record = placed.record
+    lighting, estimate, match = m.lighting, prep.estimate, prep.match
+    if estimate is not None:
+        lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
+        record = record.with_(lighting=estimate.to_dict() | {"renderer": lighting.to_dict()})
+    if match is not None:
+        record = record.with_(camera_match=match.to_dict())
+    looks = []
+    with timed(timings, "render"):
+        objects = []
+        for obj in placed.objects:
+            spec, pl = obj.spec, obj.placement
+            albedo = ground_albedo(image_set.rgb, frame, pl, [label_id(s) for s in spec.allowed_surfaces])
+            # an object standing in a real cast shadow gets no sun
+            sun = 1.0 if estimate is None else estimate.sun_visibility(int(frame.label_ids[pl.pixel]), albedo)
+            # this object's paint or clothes, drawn apart from the placement's draws
+            look = draw_appearance(obj.model, spec.class_name, appearance_rng(m.seed, prep.ident.key, len(objects))) \
+                if spec.appearance == "varied" else Appearance()
+            objects.append(RenderObject(obj.model, pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour))
+            looks.append((albedo, sun, look))
+        passes = renderer.render(cam, objects, lighting, photo=image_set.rgb,  # real shadows on the objects
+                                 sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
+    with timed(timings, "compose"):
+        noise = placed.noise
+        scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
+                            occluder_depth(prep.depth), cam.baseline * cam.fx * 256.0,
+                            ground=np.isin(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
+                            ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
+        classes = [label_id(o.spec.class_name) for o in placed.objects]
+        tones, camera_looks = None, [None] * len(placed.objects)
+        ids = passes.read("id") if passes is not None else None  # object index per pixel
+        if passes is not None and prep.reference is not None:  # the camera's look on the objects
+            fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
+            camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],
+                                        prep.reference, fallback, match)
+            tones = [(t["gain"], t["saturation"]) for t in camera_looks]
+        composed = composer.compose(passes, scene, classes, [o.instance_id for o in placed.objects], match, tones)
+        n = len(placed.objects)
+        rendered = np.zeros(n + 1, np.int64)
+        amodal = [None] * n  # amodal 2D box of each object
+        kept, roi = {}, None
+        if passes is not None:
+            rendered = np.bincount(ids.ravel(), minlength=n + 1)
+            amodal = amodal_boxes(ids, passes.roi, n)
+            kept = {k: passes.read(k).copy() for k in keep if k in passes.textures}
+            roi = (passes.roi.x0, passes.roi.y0, passes.roi.width, passes.roi.height)
+            renderer.release(passes)
+    return Shaded(placed, tuple(ObjectLook(a, s, lk, c) for (a, s, lk), c in zip(looks, camera_looks)), record,
+                  composed, amodal, rendered, cam, prep.camera_json, kept, roi)

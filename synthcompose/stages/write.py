@@ -1,0 +1,94 @@
+"""Stage 6 - write: the augmented image set's files, its annotations, and its record, last
+(its presence means the image set is complete) -> :class:`Outcome`. Touches no GL object:
+runs on the writer thread."""
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+from ..annotations import encode_rle, mask_box, write_frame_annotations
+from ..dataset import ImageSetId
+from ..labels import label_id
+from ..manifest import Manifest
+from ..record import DONE, NO_PLACEMENT, ObjectPose, ObjectRecord
+from ..writer import write_outputs, write_record
+from .place import Placed
+from .shade import Shaded
+from .timing import timed
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What happened to one image set: ``done``, ``skipped`` (no valid placement) or ``failed``."""
+
+    key: str
+    status: str
+    reason: str | None = None
+    objects: int = 0
+    timings: dict[str, float] = field(default_factory=dict)
+    resumed: bool = False  # complete from an earlier run with the same configuration
+
+
+def object_records(s: Shaded, ident: ImageSetId) -> tuple[ObjectRecord, ...]:
+    """The record of each shaded object (with its visible mask as COCO RLE)."""
+    visible = s.composed.visible
+    opt_from_v = s.camera.optical_from_vehicle
+    out = []
+    for k, (obj, look) in enumerate(zip(s.placed.objects, s.looks), start=1):
+        pl, spec = obj.placement, obj.spec
+        mask = visible == k
+        bbox = mask_box(mask)
+        visible_pixels = int(mask.sum())
+        out.append(ObjectRecord(
+            index=k, name=spec.name, model=spec.model, class_name=spec.class_name,
+            allowed_surfaces=tuple(spec.allowed_surfaces), orientation=spec.orientation,
+            label_id=label_id(spec.class_name), instance_id=obj.instance_id, extents_m=tuple(pl.extents),
+            pose=ObjectPose.of(pl.matrix, opt_from_v, pl.position, pl.yaw),
+            ground={"normal": [round(v, 5) for v in pl.ground_normal], "rms_m": round(pl.ground_rms, 4),
+                    "albedo_linear": [round(v, 4) for v in look.plane_albedo],
+                    "sun_visibility": round(look.sun_visibility, 3)},
+            distance_m=round(pl.distance, 3),
+            road_yaw_deg=None if pl.road_yaw is None else round(math.degrees(pl.road_yaw), 3),
+            pixel=tuple(pl.pixel), bbox_2d=None if bbox is None else tuple(bbox), visible_pixels=visible_pixels,
+            rendered_pixels=int(s.rendered[k]),
+            occluded_fraction=round(1.0 - visible_pixels / max(int(s.rendered[k]), 1), 4),
+            truncated=pl.truncated,
+            placement={"attempts": obj.result.attempts, "rejections": obj.result.rejections},
+            appearance=look.appearance.to_dict(),
+            camera_look=None if look.camera_look is None else
+            {k2: (round(v, 4) if isinstance(v, float) else v) for k2, v in look.camera_look.items()},
+            placement_source="saved" if s.placed.saved is not None else "random",
+            placement_check=obj.check,
+            bbox_2d_amodal=None if s.amodal[k - 1] is None else tuple(s.amodal[k - 1]),
+            mask_rle=encode_rle(mask)))
+    return tuple(out)
+
+
+def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, float]) -> Outcome:
+    """The image set's files, annotations and record (last)."""
+    composed = s.composed
+    with timed(timings, "write"):
+        write_outputs(m.output, ident, composed, s.camera_json)
+        objects = object_records(s, ident)
+        h, w = composed.visible.shape
+        record = s.record.with_(objects=objects, status=DONE, image={
+            "file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h})
+        # gtFine polygons and gtBbox3d files; before the record, which is written last
+        write_frame_annotations(m.output, m.dataset, ident, objects, [o.placement.matrix for o in s.placed.objects],
+                                composed.visible, composed.label_ids, composed.instance_ids, s.camera)
+        write_record(m.output, ident, record.to_json())
+    return Outcome(ident.key, "done", None, len(objects), timings)
+
+
+def write_skipped(m: Manifest, ident: ImageSetId, placed: Placed, timings: dict[str, float]) -> Outcome:
+    """No object found a place: the record alone, saying why."""
+    with timed(timings, "write"):
+        write_record(m.output, ident, placed.record.with_(status=NO_PLACEMENT).to_json())
+    reasons: Counter[str] = Counter()
+    for f in placed.failures:
+        reasons.update(f["rejections"])
+    why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
+    return Outcome(ident.key, "skipped", f"no valid placement ({why})", timings=timings)
