@@ -11,23 +11,22 @@ seeded noise of the photo's level where it covers the pixel.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Sequence
 
-import cv2
 
 import moderngl
 import numpy as np
 
 from .colour import linear_to_srgb, srgb_to_linear
 from .gl import GLContext
+from .labels import label_ids
 from .lighting.camera import CameraMatch
 from .render import RenderPasses
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi
-FRONT_LABELS = (1, 2, 3)
+FRONT_LABELS = label_ids("ego vehicle", "rectification border", "out of roi")
 #: an object pixel is in front of the real scene when  d_obj < d_scene + TOL_ABS + TOL_REL*d_obj
 TOL_ABS = 0.05  # metres
 TOL_REL = 0.005

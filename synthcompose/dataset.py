@@ -19,7 +19,7 @@ import numpy as np
 
 from .camera import Camera
 from .errors import InputError
-from .fileio import map_threads, read_png
+from .fileio import decode_disparity, map_threads, read_png
 from .labels import KNOWN_IDS
 
 _NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
@@ -161,7 +161,7 @@ def check_disparity(path: Path, disparity: np.ndarray, width: int) -> None:
     valid = disparity > 1
     if not valid.any():
         raise InputError(path, "disparity has no valid pixel (all zero): no depth to place objects by")
-    d = (disparity[valid].astype(np.float32) - 1) / 256.0
+    d = decode_disparity(disparity[valid])
     share = float((d > MAX_DISPARITY_WIDTH_SHARE * width).mean())
     if share > 0.01:
         raise InputError(path, f"{share:.0%} of the disparities exceed half the image width "

@@ -46,6 +46,21 @@ def map_threads(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
 
 #: input files larger than this are refused before they are read (bytes); a 2048x1024 16-bit
 #: PNG is a few MB, a camera JSON a few hundred bytes
+#: Cityscapes disparity PNG: a 16-bit value p > 0 encodes d = (p - 1) / DISPARITY_SCALE pixels;
+#: p = 0 is invalid (p = 1: d = 0, infinitely far)
+DISPARITY_SCALE = 256.0
+
+
+def decode_disparity(png: np.ndarray) -> np.ndarray:
+    """(H, W) uint16 Cityscapes disparity -> float32 pixels ((p - 1) / 256; <= 0 where unknown)."""
+    return (png.astype(np.float32) - 1.0) / DISPARITY_SCALE
+
+
+def encode_disparity(d: np.ndarray) -> np.ndarray:
+    """Disparities in pixels (> 0) -> their uint16 Cityscapes values (rounded, clipped to 1..65535)."""
+    return np.clip(np.rint(d * DISPARITY_SCALE) + 1.0, 1, 65535).astype(np.uint16)
+
+
 MAX_INPUT_BYTES = 256 << 20
 #: PNGs whose header declares more pixels than this are refused before they are decoded (a
 #: decompression bomb: a few KB that decode to gigabytes)

@@ -11,8 +11,7 @@ from functools import cached_property
 import numpy as np
 
 from .camera import Camera
-
-DISPARITY_SCALE = 256.0
+from .fileio import decode_disparity, encode_disparity
 
 
 def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:
@@ -21,7 +20,7 @@ def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:
     Invalid pixels (p = 0, or p = 1 which means d = 0, infinitely far) get ``inf``:
     nothing real is known to be there, so anything rendered is in front of them.
     """
-    d = (disparity.astype(np.float32) - 1.0) / DISPARITY_SCALE
+    d = decode_disparity(disparity)
     depth = np.full(disparity.shape, np.inf, np.float32)
     ok = d > 0
     depth[ok] = np.float32(camera.baseline * camera.fx) / d[ok]
@@ -65,8 +64,7 @@ def depth_to_disparity(depth: np.ndarray, camera: Camera) -> np.ndarray:
     depth = np.asarray(depth, np.float64)
     out = np.zeros(depth.shape, np.uint16)
     ok = np.isfinite(depth) & (depth > 0)
-    p = np.rint(camera.baseline * camera.fx / depth[ok] * DISPARITY_SCALE) + 1.0
-    out[ok] = np.clip(p, 1, 65535).astype(np.uint16)
+    out[ok] = encode_disparity(camera.baseline * camera.fx / depth[ok])
     return out
 
 

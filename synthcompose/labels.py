@@ -33,6 +33,17 @@ def label_id(name: str) -> int:
         raise KeyError(f"unknown Cityscapes class {name!r}; known classes: {known}") from None
 
 
+def label_ids(*names: str) -> tuple[int, ...]:
+    """The label ids of class names, in the order given (:func:`label_id` of each)."""
+    return tuple(label_id(n) for n in names)
+
+
+def category_ids(*categories: str) -> tuple[int, ...]:
+    """The label ids (>= 0) of every class in the given Cityscapes categories (``"vehicle"``,
+    ``"human"``, ``"construction"``, ...), in id order."""
+    return tuple(sorted(lab.id for lab in labels if lab.category in categories and lab.id >= 0))
+
+
 def label_name(label: int) -> str:
     return id2label[int(label)].name
 

@@ -27,6 +27,7 @@ from .camera import Camera
 from .geometry import nearest_in_row
 from .labels import label_id
 from .placement.noise import measure_sigma
+from .fileio import decode_disparity
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
 #: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
@@ -111,7 +112,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     and photo (H, W, 3 uint8 RGB)."""
     H, W = disparity_png.shape
     w, h = int(round(W * SCALE)), int(round(H * SCALE))
-    d_full = (disparity_png.astype(np.float32) - 1.0) / 256.0
+    d_full = decode_disparity(disparity_png)
     d_full[disparity_png <= 1] = np.nan
     # nearest-neighbour subsampling keeps holes holes and does not blend across borders
     step = int(round(1 / SCALE))

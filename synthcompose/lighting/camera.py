@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from ..colour import LUM, linear_to_srgb, srgb_to_linear
+from ..labels import category_ids, label_id
 
 
 #: what :func:`estimate_blur` measures on edges as sharp as the renderer's (4x MSAA resolved,
@@ -127,8 +128,8 @@ CENTRAL = (0.15, 0.85)
 #: object pixels the tone is measured on (an even spread of them)
 TONE_SAMPLES = 4000
 #: classes that stand in for each other as references (Cityscapes ids): vehicles, people
-REFERENCE_GROUPS = ((26, 27, 28, 29, 30, 31, 32, 33), (24, 25))
-ROAD_ID = 7
+REFERENCE_GROUPS = (category_ids("vehicle"), category_ids("human"))
+ROAD_ID = label_id("road")
 #: without references in the frame (no labels, or too few cars): cars' tones relative to the
 #: road's under the same light and camera - per-car median HSV value against the road's (in
 #: linear light) and saturation against the road's, at the 10th, 15th, 30th, 50th, 70th, 85th

@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 
 from ..colour import LUM as _LUM, SRGB8_TO_LINEAR
+from ..labels import category_ids, label_ids
 from ..render import Lighting
 
 
@@ -29,13 +30,15 @@ LIT_PAIRS_LOW = 0.4
 #: weight of the geometric shadow agreement against the shading cue in the direction's score
 SHADOW_AGREEMENT_WEIGHT = 0.1
 
-GROUND_IDS = (6, 7, 8, 9, 10)  # ground, road, sidewalk, parking, rail track
-ROAD_ID, SIDEWALK_ID, SKY_ID = 7, 8, 23
+GROUND_IDS = label_ids("ground", "road", "sidewalk", "parking", "rail track")
+ROAD_ID, SIDEWALK_ID, SKY_ID = label_ids("road", "sidewalk", "sky")
 #: things standing on the ground that cast shadows (static, dynamic, constructions, objects,
 #: vegetation, humans, vehicles)
-OCCLUDER_IDS = (4, 5, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33)
+OCCLUDER_IDS = tuple(sorted(label_ids("static", "dynamic", "vegetation")
+                            + category_ids("construction", "object", "human", "vehicle")))
 #: surface classes whose albedo is locally constant enough for the shading pairs
-SHADING_IDS = (7, 8, 11, 12, 13, 14, 17, 19, 20, 26, 27, 28, 29, 30, 31)
+SHADING_IDS = label_ids("road", "sidewalk", "building", "wall", "fence", "guard rail", "pole", "traffic light",
+                        "traffic sign", "car", "truck", "bus", "caravan", "trailer", "train")
 _FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
 _LUT = SRGB8_TO_LINEAR

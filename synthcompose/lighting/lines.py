@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
+from ..labels import label_ids
 from .light import LUM
 from .grid import _Grid
 from .shadows import _Mixture, _ShadowCue
@@ -17,6 +18,8 @@ from .pairs import _PairCue, _pair_fit
 #: plan) and off the street's axis and its normal by more than LINE_AXIS_BAND degrees is the
 #: shadow of something vertical: it runs along the sun's azimuth
 LINE_MIN_LENGTH, LINE_AXIS_BAND = 3.0, 10.0
+#: the vertical surfaces whose shadow lines the sun direction is read from
+WALL_IDS = label_ids("building", "wall")
 #: the shading gain a direction along such an edge may lose against the best direction
 LINE_MARGIN = 0.3
 _LINE_BIN = 0.25  # metres: offset and length bins of the edge search
@@ -29,7 +32,7 @@ def _street_axis(g: _Grid) -> float:
     vehicle's heading when no wall is in view)."""
     sub = (slice(None, None, 2), slice(None, None, 2))  # every other cell is plenty
     normals = g.normals[sub]
-    sel = g.pure[sub] & np.isin(g.label[sub], (11, 12)) & (np.abs(normals[..., 2]) < 0.3)  # building, wall
+    sel = g.pure[sub] & np.isin(g.label[sub], WALL_IDS) & (np.abs(normals[..., 2]) < 0.3)
     if sel.sum() < 50:
         return 0.0
     n = normals[sel]

@@ -16,6 +16,7 @@ from ..appearance import Appearance, appearance_rng, draw_appearance
 from ..camera import Camera
 from ..colour import srgb_to_linear
 from ..compose import Composed, Composer, SceneLayers
+from ..fileio import DISPARITY_SCALE
 from ..geometry import Frame, occluder_depth
 from ..labels import label_id
 from ..lighting.camera import object_tones
@@ -103,7 +104,7 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, p
     with timed(timings, "compose"):
         noise = placed.noise
         scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
-                            occluder_depth(prep.depth), cam.baseline * cam.fx * 256.0,
+                            occluder_depth(prep.depth), cam.baseline * cam.fx * DISPARITY_SCALE,
                             ground=np.isin(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
                             ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
         classes = [label_id(o.spec.class_name) for o in placed.objects]

@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
-from ..geometry import DISPARITY_SCALE
+from ..fileio import DISPARITY_SCALE
 from ..labels import label_id
 
 STEREO_MODES = ("realistic", "exact")

@@ -31,6 +31,7 @@ import numpy as np
 from ..camera import Camera
 from ..geometry import back_project, disparity_to_depth, make_frame
 from ..labels import HAS_INSTANCES, label_id
+from ..fileio import decode_disparity
 
 WINDOW = 31
 BANDS = ((5.0, 10.0), (10.0, 20.0), (20.0, 40.0))
@@ -42,7 +43,7 @@ _ROAD = label_id("road")
 
 
 def _px(disparity: np.ndarray) -> np.ndarray:
-    d = (disparity.astype(np.float32) - 1) / 256
+    d = decode_disparity(disparity)
     d[disparity == 0] = np.nan
     return d
 
