@@ -79,13 +79,13 @@ def _compare_lighting(args: argparse.Namespace) -> int:
     return 0 if all(r["status"] in ("done", "no valid placement") for r in results) else 1
 
 
-# --- preview (preview.py, preview_state.py)
+# --- preview (preview/)
 def _preview(args: argparse.Namespace) -> int:
     from .manifest import load_manifest
 
     manifest = load_manifest(args.manifest)
     if args.export_ply:  # headless: no window, no windowing toolkit imported
-        from .preview_state import PreviewSession
+        from .preview.session import PreviewSession
 
         session = PreviewSession(manifest, args.frame)
         try:
@@ -97,7 +97,7 @@ def _preview(args: argparse.Namespace) -> int:
             session.close()
         print(f"written: {args.export_ply} ({info['points']} points, {info['objects']} object boxes)")
         return 0
-    from .preview import run_preview
+    from .preview.window import run_preview
 
     return run_preview(manifest, args.frame)
 # --- end preview

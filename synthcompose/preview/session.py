@@ -1,13 +1,14 @@
-"""What ``synthcompose preview`` shows, without any window: headless and testable.
+"""The preview's session: what ``synthcompose preview`` shows, without any window (headless, testable).
 
 A :class:`PreviewSession` runs the batch's own stages (:mod:`synthcompose.stages`: prepare,
 place, shade, with the GL context of a :class:`~synthcompose.pipeline.Pipeline`) on one image
 set, up to the compose (nothing is written), keeps the results as a :class:`View`, and turns them into the
-images of each pass, a PLY file, and saved placements. Every shown pose is checked against
-the batch's placement rules (:func:`~synthcompose.placement.check_pose`): a :class:`Verdict`,
-and :meth:`PreviewSession.save` refuses a pose that breaks one unless forced. :class:`Overlay`
-is the text the window draws over the view, as an RGBA picture. :mod:`synthcompose.preview`
-puts it all in a window; this module never imports a windowing toolkit.
+images of each pass (:meth:`PreviewSession.pass_image`, depth as turbo colours), a PLY file
+(:mod:`.export`), and saved placements. Every shown pose is checked against the batch's placement
+rules (:func:`~synthcompose.placement.check_pose`): a :class:`Verdict`, and :meth:`PreviewSession.save`
+refuses a pose that breaks one unless forced (:class:`PlacementRefused`). The text drawn over the
+view is :mod:`.overlay`; :mod:`.window` puts it all in a window. This module never imports a
+windowing toolkit.
 """
 from __future__ import annotations
 
@@ -18,16 +19,17 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .dataset import ImageSetId
-from .errors import SynthComposeError
-from .geometry import Frame
-from .colour import linear_to_srgb
-from .labels import COLOR_LUT
-from .manifest import Manifest
-from .placement import Placement, Rejection, check_pose
-from .placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
-                         write_saved)
-from .stages import place, prepare, shade
+from ..dataset import ImageSetId
+from ..errors import SynthComposeError
+from ..geometry import Frame
+from ..colour import linear_to_srgb
+from ..labels import COLOR_LUT
+from ..manifest import Manifest
+from ..placement import Placement, Rejection, check_pose
+from ..placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
+                          write_saved)
+from ..stages import place, prepare, shade
+from .export import export_ply
 
 #: the passes the preview shows, in key order (1..9)
 PASSES = ("composed", "irpv", "ir", "alpha", "id", "odepth", "scene_depth", "occlusion", "semantic")
@@ -42,11 +44,8 @@ ID_COLOURS = np.array([[0, 0, 0], [230, 25, 75], [60, 180, 75], [255, 225, 25], 
 REASON_COLOURS = np.array([[255, 0, 0], [255, 128, 0], [255, 0, 255], [0, 255, 255], [255, 255, 0], [128, 0, 255],
                            [0, 128, 255], [255, 128, 128], [128, 255, 0], [255, 0, 128], [128, 128, 255],
                            [200, 200, 200]], np.uint8)
-ACCEPTED_COLOUR = (0, 255, 0)
-SELECTED_BOX_COLOUR, BOX_COLOUR, PLANE_COLOUR = (255, 255, 0), (255, 60, 60), (0, 220, 0)  # 3D view
 STEP_M = 0.25  # arrow keys move the object this far
 STEP_YAW_DEG = 5.0  # Q/E turn it this much
-OK_COLOUR, FAIL_COLOUR, NOTE_COLOUR, TEXT_COLOUR = (90, 230, 90), (255, 80, 80), (255, 210, 90), (235, 235, 235)
 
 
 class PlacementRefused(SynthComposeError):
@@ -148,8 +147,8 @@ class PreviewSession:
     """One manifest's image sets through the batch's pipeline, one at a time, for viewing."""
 
     def __init__(self, manifest: Manifest, frame: str | None = None, gl=None, gl_backend: str | None = None) -> None:
-        from .batch import select
-        from .pipeline import Pipeline
+        from ..batch import select
+        from ..pipeline import Pipeline
 
         self.base = manifest
         self.ids, weights, _ = select(manifest)
@@ -332,161 +331,3 @@ class PreviewSession:
     def export_ply(self, path: str | Path, colour: str = "rgb") -> dict[str, int]:
         return export_ply(path, self.view, self.cloud_colours(colour))
 
-
-# --------------------------------------------------------------------------- overlay
-Rgb = tuple[int, int, int]
-_FONT = cv2.FONT_HERSHEY_SIMPLEX
-_PANEL = (18, 18, 22, 175)  # RGBA of the panels behind the text
-
-
-def _wrap(text: str, scale: float, width: int) -> list[str]:
-    """``text`` cut at spaces (or anywhere, for one long word) into lines at most ``width`` px wide."""
-    def fits(t: str) -> bool:
-        return cv2.getTextSize(t, _FONT, scale, 1)[0][0] <= width
-
-    lines, line = [], ""
-    for word in text.split(" "):
-        trial = f"{line} {word}" if line else word
-        if fits(trial):
-            line = trial
-            continue
-        if line:
-            lines.append(line)
-        while not fits(word) and len(word) > 1:
-            cut = max(k for k in range(1, len(word) + 1) if fits(word[:k]) or k == 1)
-            lines.append(word[:cut])
-            word = word[cut:]
-        line = word
-    return lines + [line] if line else lines
-
-
-def _panel(out: np.ndarray, x: int, y: int, rows: list[tuple[Rgb | None, str, Rgb]], scale: float,
-           max_width: int, max_height: int, from_bottom: bool = False) -> tuple[int, int, int, int]:
-    """Draw rows (swatch colour or None, text, text colour) on a dark panel with its top left
-    corner at (x, y) (bottom left when ``from_bottom``), text wrapped to ``max_width`` px; a tab
-    in a text starts a second column, aligned over the rows. Returns the panel's (x0, y0, x1, y1);
-    rows beyond ``max_height`` px are left out."""
-    H, W = out.shape[:2]
-    (_, th), base = cv2.getTextSize("Ag", _FONT, scale, 1)
-    line_h, pad = th + base + 3, 4
-    sw = th + 4 if any(c is not None for c, _, _ in rows) else 0  # swatch column
-    split = [(c, *(t.split("\t", 1) if "\t" in t else ("", t)), colour) for c, t, colour in rows]
-    col = max((cv2.getTextSize(k, _FONT, scale, 1)[0][0] + 2 * th for _, k, _, _ in split if k), default=0)
-    lines: list[tuple[Rgb | None, str, str, Rgb]] = []
-    for swatch, key, text, colour in split:
-        for k, part in enumerate(_wrap(text, scale, max(max_width - sw - col - 2 * pad, 10))):
-            lines.append((swatch, key, part, colour) if k == 0 else (None, "", part, colour))
-    lines = lines[:max((min(max_height, H) - 2 * pad + 3) // line_h, 0)]
-    if not lines:
-        return x, y, x, y
-    width = sw + col + max(cv2.getTextSize(t, _FONT, scale, 1)[0][0] for _, _, t, _ in lines) + 2 * pad
-    height = len(lines) * line_h + 2 * pad - 3
-    y0 = y - height if from_bottom else y
-    x1, y1 = min(x + width, W), min(y0 + height, H)
-    out[max(y0, 0):y1, max(x, 0):x1] = _PANEL
-    for k, (swatch, key, text, colour) in enumerate(lines):
-        top = y0 + pad + k * line_h
-        if swatch is not None:
-            cv2.rectangle(out, (x + pad, top + 1), (x + pad + th, top + th), (*swatch, 255), -1)
-        for dx, t in ((0, key), (col, text)):
-            if t:
-                cv2.putText(out, t, (x + pad + sw + dx, top + th), _FONT, scale, (*colour, 255), 1, cv2.LINE_AA)
-    return x, y0, x1, y1
-
-
-@dataclass(frozen=True)
-class Overlay:
-    """The text the window draws over its view: ``lines`` at the top left ((text, RGB)), the
-    3D view's ``legend`` at the bottom left ((swatch RGB, text)), ``help`` below the first line
-    (the other lines and the legend make room for it)."""
-
-    lines: tuple[tuple[str, Rgb], ...]
-    legend: tuple[tuple[Rgb, str], ...] = ()
-    help: tuple[str, ...] = ()
-
-    def render(self, width: int, height: int) -> np.ndarray:
-        """(height, width, 4) uint8 RGBA picture (straight alpha, top row first): the text on
-        translucent dark panels, transparent elsewhere."""
-        out = np.zeros((height, width, 4), np.uint8)
-        scale = float(np.clip(0.55 * min(width / 1280, height / 720), 0.4, 0.65))
-        margin = 6
-        room = width - 2 * margin
-        lines = self.lines[:1] if self.help else self.lines  # help: only the first line stays
-        _, _, _, bottom = _panel(out, margin, margin, [(None, t, c) for t, c in lines], scale, room,
-                                 height - 2 * margin)
-        below = height - bottom - 2 * margin  # room left under the lines
-        if self.legend and not self.help:  # help takes the legend's place
-            _panel(out, margin, height - margin, [(c, t, TEXT_COLOUR) for c, t in self.legend], scale,
-                   min(room, max(width // 2, 320)), below, from_bottom=True)
-        if self.help:
-            _panel(out, margin, bottom + margin, [(None, t, TEXT_COLOUR) for t in self.help], scale, room, below)
-        return out
-
-
-def view_legend(view: View) -> tuple[tuple[Rgb, str], ...]:
-    """The 3D view's colours: rejected candidates by reason (commonest first), then the rest."""
-    cols = view.reason_colour()
-    rows = [(cols[why], f"x{n} {why}") for why, n in sorted(view.reasons.items(), key=lambda kv: -kv[1])]
-    return tuple(rows) + ((ACCEPTED_COLOUR, "accepted position"), (SELECTED_BOX_COLOUR, "selected object's box"),
-                          (BOX_COLOUR, "other objects' boxes"), (PLANE_COLOUR, "fitted ground plane"))
-
-
-def box_mesh(m: np.ndarray, extents) -> tuple[np.ndarray, np.ndarray]:
-    """(8, 3) corners (V) and (12, 3) triangles of an object's oriented box."""
-    l, w, h = extents
-    local = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, h)])
-    # corner index = 4*ix + 2*iy + iz
-    quads = [(0, 2, 6, 4), (1, 5, 7, 3), (0, 4, 5, 1), (2, 3, 7, 6), (0, 1, 3, 2), (4, 6, 7, 5)]
-    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int32)
-    return local @ m[:3, :3].T + m[:3, 3], tris
-
-
-BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
-
-
-def plane_quad(m: np.ndarray, extents, margin: float = 1.0) -> np.ndarray:
-    """(4, 3) corners (V) of the object's fitted ground plane, ``margin`` beyond its footprint."""
-    l, w, _ = extents
-    hx, hy = l / 2 + margin, w / 2 + margin
-    local = np.array([[-hx, -hy, 0.0], [hx, -hy, 0.0], [hx, hy, 0.0], [-hx, hy, 0.0]])
-    return local @ m[:3, :3].T + m[:3, 3]
-
-
-def export_ply(path: str | Path, view: View, colours: np.ndarray) -> dict[str, int]:
-    """Binary PLY (vehicle frame, metres): every cloud point with its colour, then per object
-    its box (8 red vertices, 12 triangles) and its ground plane (4 green vertices, 2 triangles).
-    Loads in trimesh (``process=False`` keeps the unreferenced cloud points) and MeshLab."""
-    pts = view.frame.cloud.vehicle.astype(np.float32)
-    verts, faces = [pts], []
-    cols = [np.asarray(colours, np.uint8)]
-    base = len(pts)
-    for o in view.objects:
-        m = o.placement.matrix
-        corners, tris = box_mesh(m, o.extents)
-        verts += [corners.astype(np.float32), plane_quad(m, o.extents).astype(np.float32)]
-        cols += [np.tile(np.uint8([255, 0, 0]), (8, 1)), np.tile(np.uint8([0, 200, 0]), (4, 1))]
-        faces += [tris + base, np.array([[0, 1, 2], [0, 2, 3]], np.int32) + base + 8]
-        base += 12
-    v = np.concatenate(verts)
-    c = np.concatenate(cols)
-    f = np.concatenate(faces) if faces else np.empty((0, 3), np.int32)
-    vdt = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("red", "u1"), ("green", "u1"), ("blue", "u1")])
-    vrec = np.empty(len(v), vdt)
-    vrec["x"], vrec["y"], vrec["z"] = v[:, 0], v[:, 1], v[:, 2]
-    vrec["red"], vrec["green"], vrec["blue"] = c[:, 0], c[:, 1], c[:, 2]
-    fdt = np.dtype([("n", "u1"), ("i", "<i4", (3,))])
-    frec = np.empty(len(f), fdt)
-    frec["n"], frec["i"] = 3, f
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"comment synthcompose preview: {view.ident.key}, vehicle frame (ISO 8855), metres\n"
-              f"comment {len(pts)} scene points, then per object 8 box corners and 4 ground-plane corners\n"
-              f"element vertex {len(v)}\nproperty float x\nproperty float y\nproperty float z\n"
-              "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "wb") as fh:
-        fh.write(header.encode("ascii"))
-        fh.write(vrec.tobytes())
-        fh.write(frec.tobytes())
-    return {"points": len(pts), "objects": len(view.objects), "vertices": len(v), "faces": len(f)}

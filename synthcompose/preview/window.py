@@ -1,8 +1,8 @@
 """``synthcompose preview``: a window for debugging placement (GLFW; ``pip install 'synthcompose[preview]'``).
 
 The window's OpenGL context is the only one: it is wrapped in a :class:`~synthcompose.gl.GLContext`
-and the batch's own Pipeline, Renderer and Composer render into it (:mod:`synthcompose.preview_state`
-does the work; this module only shows it and maps keys and the mouse).
+and the batch's own Pipeline, Renderer and Composer render into it (:mod:`.session` does the work,
+:mod:`.overlay` the text; this module only shows it and maps keys and the mouse; it imports GLFW lazily).
 
 The keys are :data:`KEYS`. Every shown pose is checked against the batch's placement rules; the
 verdict (OK, or the object, the rule it breaks and why) is on the overlay drawn over the view
@@ -12,18 +12,19 @@ S refuses to save a pose that fails (Shift+S saves it anyway). 3D view: left dra
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
-from .errors import SynthComposeError
-from .gl import GLContext
-from .manifest import Manifest
-from .render.transforms import gl_mat4, look_at, perspective
-from .preview_state import (ACCEPTED_COLOUR, BOX_COLOUR, BOX_EDGES, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PASS_TITLES,
-                            PASSES, PLANE_COLOUR, SELECTED_BOX_COLOUR, STEP_M, STEP_YAW_DEG, TEXT_COLOUR, Overlay,
-                            PlacementRefused, PreviewSession, box_mesh, plane_quad, view_legend)
+from ..errors import SynthComposeError
+from ..gl import GLContext
+from ..manifest import Manifest
+from ..render.transforms import gl_mat4
+from .export import BOX_EDGES, box_mesh, plane_quad
+from .orbit import Orbit
+from .overlay import (ACCEPTED_COLOUR, BOX_COLOUR, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PLANE_COLOUR,
+                      SELECTED_BOX_COLOUR, TEXT_COLOUR, Overlay, view_legend)
+from .session import PASS_TITLES, PASSES, STEP_M, STEP_YAW_DEG, PlacementRefused, PreviewSession
 
 #: (key, what it does): the console and on-screen help
 KEYS = (
@@ -52,29 +53,6 @@ def _import_glfw():
     except ImportError:
         raise SynthComposeError("the preview window needs GLFW: pip install 'synthcompose[preview]'") from None
     return glfw
-
-
-class Orbit:
-    """Orbit camera around a target in the vehicle frame (z up)."""
-
-    def __init__(self) -> None:
-        self.target = np.zeros(3)
-        self.yaw, self.pitch, self.distance = math.radians(200.0), math.radians(35.0), 25.0
-
-    @property
-    def eye(self) -> np.ndarray:
-        cp = math.cos(self.pitch)
-        return self.target + self.distance * np.array([cp * math.cos(self.yaw), cp * math.sin(self.yaw),
-                                                       math.sin(self.pitch)])
-
-    def matrix(self, aspect: float) -> np.ndarray:
-        return perspective(50.0, aspect, 0.1, 1000.0) @ look_at(self.eye, self.target)
-
-    def pan(self, dx: float, dy: float) -> None:
-        view = look_at(self.eye, self.target)
-        right, up = view[0, :3], view[1, :3]
-        k = self.distance * 0.0015
-        self.target = self.target - right * dx * k + up * dy * k
 
 
 class PreviewWindow:
