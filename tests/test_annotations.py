@@ -27,14 +27,10 @@ from synthcompose.labels import HAS_INSTANCES
 from synthcompose.synthetic import make_sample
 
 from .test_batch import write_manifest
+# the tolerances, from the one table; imported from here too (test_ecosystem, test_real_polygons)
+from .tolerances import CORNER_M, CORNER_PX, INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK, POLYGON_MIN_IOU, SILHOUETTE_PX
 
 W, H = 640, 320
-POLYGON_MIN_IOU = 0.98  # polygons rasterised vs the visible mask
-LABELS_DRAWN_BACK = 0.995  # share of pixels where cityscapesScripts' drawing equals the labelIds
-INSTANCES_DRAWN_BACK = 0.99  # ... equals the instanceIds
-CORNER_PX = 1.0  # cityscapesScripts' projected 3D box corners vs ours, pixels
-CORNER_M = 0.01  # cityscapesScripts' 3D box corners in V vs ours, metres
-SILHOUETTE_PX = 1.0  # the amodal silhouette box may exceed the projected 3D box by this much
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -361,7 +357,7 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
 
 # ------------------------------------------------------------- an object behind a real pole
 def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
-    from synthcompose.annotations import amodal_boxes, annotate_objects, bbox3d_document, polygons_document
+    from synthcompose.annotations import amodal_boxes, bbox3d_document, polygons_document
     from synthcompose.compose import Composer, SceneLayers
     from synthcompose.geometry import disparity_to_depth, occluder_depth
     from synthcompose.labels import label_id
@@ -394,16 +390,20 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     assert amodal == mask_box(silhouette) and mask_box(visible) is not None
 
     # the record entries the pipeline makes, then the annotation documents
-    record = {"objects": [{"index": 1, "name": "box", "class": "car", "label_id": car, "instance_id": car * 1000 + 99,
-                           "extents_m": list(model.extents), "pose": {"vehicle": {"matrix": pose.tolist()}},
-                           "bbox_2d": mask_box(visible), "visible_pixels": int(visible.sum()),
-                           "occluded_fraction": round(float(hidden.sum() / silhouette.sum()), 4)}]}
-    ident = ImageSetId("train", "synthtown", "000000", "000099")
-    annotate_objects(record, out.visible, [amodal], ident)
-    obj = record["objects"][0]
-    assert (decode_rle(obj["mask_rle"]) == visible).all()
-    assert record["image"] == {"file_name": "leftImg8bit/train/synthtown/synthtown_000000_000099_leftImg8bit.png",
-                               "width": cam.width, "height": cam.height}
+    # the object's record as the write stage makes it, then the annotation documents
+    from synthcompose.annotations import encode_rle
+    from synthcompose.record import ObjectPose, ObjectRecord
+    obj = ObjectRecord(
+        index=1, name="box", model="builtin:box", class_name="car", allowed_surfaces=("road",),
+        orientation="along-road", label_id=car, instance_id=car * 1000 + 99, extents_m=tuple(model.extents),
+        pose=ObjectPose.of(pose, cam.optical_from_vehicle, pose[:3, 3], 0.0), ground={}, distance_m=0.0,
+        road_yaw_deg=None, pixel=(0, 0), bbox_2d=tuple(mask_box(visible)), visible_pixels=int(visible.sum()),
+        rendered_pixels=int(silhouette.sum()), occluded_fraction=round(float(hidden.sum() / silhouette.sum()), 4),
+        truncated=False, placement={}, appearance={}, camera_look=None, placement_source="random",
+        placement_check=None, bbox_2d_amodal=tuple(amodal), mask_rle=encode_rle(visible))
+    assert (decode_rle(obj.to_json()["mask_rle"]) == visible).all()
+    assert ObjectRecord.from_json(json.loads(json.dumps(obj.to_json()))) == obj  # the record round-trips
+    record = {"objects": [obj]}
 
     # appended to the scene's own polygons: one entry, drawn on top, leaving the pole in front alone
     source = tmp_path / "polygons.json"
@@ -424,10 +424,10 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     assert (labels == out.label_ids).mean() >= LABELS_DRAWN_BACK
     assert (instances == out.instance_ids).mean() >= INSTANCES_DRAWN_BACK
 
-    boxes = bbox3d_document(cam, record["objects"])
+    boxes = bbox3d_document(cam, record["objects"], [pose])
     (entry,) = boxes["objects"]
     # (the pole hides a strip inside the box: the modal box may equal the amodal one)
     x, y, w, h = entry["2d"]["amodal"]
     m = entry["2d"]["modal"]
     assert x <= m[0] and y <= m[1] and m[0] + m[2] <= x + w and m[1] + m[3] <= y + h
-    assert entry["occlusion"] == obj["occluded_fraction"] > 0 and entry["truncation"] == 0.0
+    assert entry["occlusion"] == obj.occluded_fraction > 0 and entry["truncation"] == 0.0

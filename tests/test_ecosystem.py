@@ -8,7 +8,8 @@ import numpy as np
 
 from synthcompose import ecosystem
 
-from .test_annotations import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK, batch  # noqa: F401 (a fixture)
+from .test_annotations import batch  # noqa: F401 (a fixture)
+from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
 
 def test_polygons_draw_back_with_json2labelimg_and_json2instanceimg(batch):  # noqa: F811

@@ -7,7 +7,7 @@ from synthcompose.camera import Camera
 from synthcompose.errors import InputError
 from synthcompose.geometry import depth_to_disparity, disparity_to_depth, point_cloud
 
-from .tolerances import DEPTH_ROUNDTRIP_DISPARITY_PX
+from .tolerances import BACKPROJECTED_PLANE_M, DEPTH_ROUNDTRIP_DISPARITY_PX, FLOAT32_DISPARITY_PX, REPROJECTION_PX
 
 
 def make_camera(w=640, h=320, **kw) -> Camera:
@@ -25,7 +25,7 @@ def test_disparity_depth_roundtrip():
     back = disparity_to_depth(disp, cam)
     d_true = cam.baseline * cam.fx / depth
     d_back = cam.baseline * cam.fx / back
-    assert np.abs(d_back - d_true).max() <= DEPTH_ROUNDTRIP_DISPARITY_PX / 2 + 1e-6
+    assert np.abs(d_back - d_true).max() <= DEPTH_ROUNDTRIP_DISPARITY_PX / 2 + FLOAT32_DISPARITY_PX
 
 
 def test_invalid_disparity_is_infinitely_far():
@@ -62,10 +62,10 @@ def test_point_cloud_back_projects_a_plane():
     labels = np.full(depth.shape, 7, np.uint8)
     cloud = point_cloud(depth, labels, cam)
     assert len(cloud) == np.isfinite(depth).sum()
-    assert np.abs(cloud.vehicle[:, 2]).max() < 1e-3
+    assert np.abs(cloud.vehicle[:, 2]).max() < BACKPROJECTED_PLANE_M
     uv = cam.project(cloud.optical)
-    assert np.abs(uv[:, 0] - cloud.pixels[:, 1]).max() < 1e-3
-    assert np.abs(uv[:, 1] - cloud.pixels[:, 0]).max() < 1e-3
+    assert np.abs(uv[:, 0] - cloud.pixels[:, 1]).max() < REPROJECTION_PX
+    assert np.abs(uv[:, 1] - cloud.pixels[:, 0]).max() < REPROJECTION_PX
 
 
 @pytest.mark.parametrize("bad, message", [

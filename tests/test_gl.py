@@ -5,6 +5,8 @@ import time
 import moderngl
 import numpy as np
 
+from .tolerances import GL_LONG_WAIT_S, GL_WAIT_COUNT_PERIOD_S
+
 _SLOW = """
 #version 330 core
 #if defined VERTEX_SHADER
@@ -65,6 +67,6 @@ def test_wait_lets_other_threads_run(gl_clean):
             gl.free(obj)  # the framebuffer unbound first
     # holding the GIL, the counter would get in once or twice per wait; without it, about once a
     # millisecond: at least once per 10 ms is asked for (a fast GPU may finish too soon to tell)
-    long_waits = [(n, waited) for n, waited in during if waited > 0.03]
+    long_waits = [(n, waited) for n, waited in during if waited > GL_LONG_WAIT_S]
     if long_waits:
-        assert max(n / (waited / 0.01) for n, waited in long_waits) >= 1.0, during
+        assert max(n / (waited / GL_WAIT_COUNT_PERIOD_S) for n, waited in long_waits) >= 1.0, during

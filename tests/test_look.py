@@ -21,6 +21,8 @@ from synthcompose.lighting.camera import ToneReference, object_tones
 from synthcompose.models import load_model
 from synthcompose.synthetic import make_sample
 
+from .tolerances import CONTACT_DEPTH_REL, PALETTE_SUM_ABS, SHADOW_BLOTCHINESS_MAX, SHADOW_BLOTCHINESS_MEDIAN, TONE_8BIT
+
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 CAR = str(ASSETS / "openmaterial_car" / "vehicle_example.gltf")
 PERSON = str(ASSETS / "openmaterial_human" / "human_example.gltf")
@@ -35,7 +37,7 @@ def car_model():
 # ------------------------------------------------------------------ appearance
 def test_palettes_are_distributions_led_by_the_common_paints():
     for palette in (PAINTS, CLOTHES):
-        assert sum(p[1] for p in palette) == pytest.approx(1.0, abs=1e-6)
+        assert sum(p[1] for p in palette) == pytest.approx(1.0, abs=PALETTE_SUM_ABS)
     shares = {name: share for name, share, _ in PAINTS}
     assert shares["white"] + shares["grey"] + shares["black"] + shares["silver"] >= 0.7
     assert palette_rank(PAINTS, "white")[0] > palette_rank(PAINTS, "grey")[0] > palette_rank(PAINTS, "black")[0]
@@ -80,8 +82,8 @@ def test_object_tones_reach_their_rank_among_the_frames_objects():
     toned = t["gain"] * np.maximum(y[:, None] + t["saturation"] * (c - y[:, None]), 0)
     srgb = np.clip(linear_to_srgb(np.clip(toned, 0, 1)), 0, 1)
     v, s = 255 * srgb.max(1), 255 * (srgb.max(1) - srgb.min(1)) / np.maximum(srgb.max(1), 1e-9)
-    assert np.median(v) == pytest.approx(np.quantile(ref.tones[26][:, 0], 0.5), abs=2.0)
-    assert np.median(s) == pytest.approx(np.quantile(ref.tones[26][:, 1], 0.5), abs=2.0)
+    assert np.median(v) == pytest.approx(np.quantile(ref.tones[26][:, 0], 0.5), abs=TONE_8BIT)
+    assert np.median(s) == pytest.approx(np.quantile(ref.tones[26][:, 1], 0.5), abs=TONE_8BIT)
     # no references: the photo's exposure only
     (none,) = object_tones(objc, ids, [26], [(0.5, 0.5)], ToneReference({}), fallback_gain=0.6)
     assert none == {"gain": 0.6, "saturation": 1.0, "reference": "none"}
@@ -138,8 +140,9 @@ def test_shadows_are_soft_and_objects_stand_on_the_ground(composed):
             if c is not None:
                 contacts.append(abs(c))
     assert n >= 4 and len(blots) >= 3 and len(contacts) >= 3
-    assert np.median(blots) <= 0.3 and max(blots) <= 0.5, blots  # a shadow, not the depth's noise
-    assert max(contacts) <= 0.05, contacts  # the lowest points on the real ground
+    # a shadow, not the depth's noise
+    assert np.median(blots) <= SHADOW_BLOTCHINESS_MEDIAN and max(blots) <= SHADOW_BLOTCHINESS_MAX, blots
+    assert max(contacts) <= CONTACT_DEPTH_REL, contacts  # the lowest points on the real ground
 
 
 def test_the_record_holds_the_appearance_the_camera_look_and_the_light_evidence(composed):

@@ -8,18 +8,20 @@ import trimesh
 from synthcompose.errors import ModelError
 from synthcompose.models import load_model
 
+from .tolerances import FBX_SIZE_REL, MODEL_CENTRED_M, MODEL_NORMAL_UNIT, MODEL_ON_GROUND_M, MODEL_SIZE_REL
+
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 
 
 def _check(model, dim, value):
     axis = {"length": 0, "width": 1, "height": 2}[dim]
-    assert model.extents[axis] == pytest.approx(value, rel=1e-5)
+    assert model.extents[axis] == pytest.approx(value, rel=MODEL_SIZE_REL)
     pos = np.concatenate([p.positions for p in model.parts])
-    assert pos[:, 2].min() == pytest.approx(0.0, abs=1e-5)  # stands on z = 0
-    assert abs(pos[:, 0].max() + pos[:, 0].min()) < 1e-4  # centred in x
-    assert abs(pos[:, 1].max() + pos[:, 1].min()) < 1e-4  # centred in y
+    assert pos[:, 2].min() == pytest.approx(0.0, abs=MODEL_ON_GROUND_M)  # stands on z = 0
+    assert abs(pos[:, 0].max() + pos[:, 0].min()) < MODEL_CENTRED_M  # centred in x
+    assert abs(pos[:, 1].max() + pos[:, 1].min()) < MODEL_CENTRED_M  # centred in y
     for p in model.parts:
-        assert np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=1e-3)
+        assert np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=MODEL_NORMAL_UNIT)
         assert p.indices.max() < len(p.positions)
 
 
@@ -56,7 +58,7 @@ def test_obj_and_stl(tmp_path):
         box.export(path)
         m = load_model(str(path), (("width", 0.5),), "+z", "+x")
         _check(m, "width", 0.5)
-        assert m.extents[0] == pytest.approx(1.5, rel=1e-5)
+        assert m.extents[0] == pytest.approx(1.5, rel=MODEL_SIZE_REL)
 
 
 def test_fbx_through_assimp(tmp_path):
@@ -68,7 +70,7 @@ def test_fbx_through_assimp(tmp_path):
         pyassimp.export(scene, str(fbx), file_type="fbxa")
     m = load_model(str(fbx), (("length", 4.0),), "+z", "+x")
     _check(m, "length", 4.0)
-    assert m.extents[1] == pytest.approx(2.0, rel=1e-4)
+    assert m.extents[1] == pytest.approx(2.0, rel=FBX_SIZE_REL)
 
 
 @pytest.mark.parametrize("content, message", [

@@ -13,6 +13,8 @@ from synthcompose.models import load_model, vertex_tangents
 from synthcompose.render import Lighting, RenderObject, Renderer
 
 from .test_geometry import make_camera
+from .tolerances import (FILE_TANGENT_MIN_COS, FLAT_NORMAL_MAP_8BIT, NORMAL_MAP_MIN_RATIO, NORMAL_MAP_SHADING_REL,
+                         NORMAL_MAP_SHOWS_8BIT, NORMAL_SCALE_EFFECT_LINEAR, TANGENT_FLOAT, TANGENT_MIN_COS)
 
 # a 1 m quad standing in the file's y-z plane (glTF: y up) and facing -x; loaded with up +y and
 # forward +x it faces the camera (O: -x); u grows along the file's +z (O: -y, right in the image),
@@ -81,16 +83,16 @@ def _face_derivatives(part):
 def _check_tangent_frame(part):
     """Unit tangents, orthogonal to the normals, along +u; bitangent w (n x t) along -v."""
     t, w, n = part.tangents[:, :3], part.tangents[:, 3], part.normals
-    assert np.allclose(np.linalg.norm(t, axis=1), 1.0, atol=1e-5)
-    assert np.abs(np.einsum("ij,ij->i", t, n)).max() < 1e-5
+    assert np.allclose(np.linalg.norm(t, axis=1), 1.0, atol=TANGENT_FLOAT)
+    assert np.abs(np.einsum("ij,ij->i", t, n)).max() < TANGENT_FLOAT
     assert set(np.unique(w)) <= {-1.0, 1.0}
     dp = _face_derivatives(part)
     f = part.indices.astype(int)
     for corner in range(3):
         vi = f[:, corner]
-        assert np.einsum("ij,ij->i", t[vi], dp[:, 0]).min() > 0.99
+        assert np.einsum("ij,ij->i", t[vi], dp[:, 0]).min() > TANGENT_MIN_COS
         b = w[vi, None] * np.cross(n[vi], t[vi])
-        assert np.einsum("ij,ij->i", b, dp[:, 1]).max() < -0.99
+        assert np.einsum("ij,ij->i", b, dp[:, 1]).max() < -TANGENT_MIN_COS
 
 
 # ---------------------------------------------------------------------------- loading
@@ -100,7 +102,7 @@ def test_tangents_are_computed_from_the_uvs(tmp_path):
     assert part.normal_texture is not None and part.normal_texture.shape == (8, 8, 4)
     assert part.normal_scale == 1.0
     _check_tangent_frame(part)
-    assert np.allclose(part.tangents, [0.0, -1.0, 0.0, 1.0], atol=1e-5)  # see QUAD
+    assert np.allclose(part.tangents, [0.0, -1.0, 0.0, 1.0], atol=TANGENT_FLOAT)  # see QUAD
 
 
 def test_gltf_with_external_files_keeps_both_textures(tmp_path):
@@ -134,8 +136,8 @@ def test_computed_tangents_follow_a_curved_skewed_and_mirrored_mapping():
         dpdu = dp[:, 0] - normals * np.einsum("ij,ij->i", normals, dp[:, 0])[:, None]
         dpdu /= np.linalg.norm(dpdu, axis=1, keepdims=True)
         t, w = tangents[:, :3], tangents[:, 3]
-        assert np.abs(np.einsum("ij,ij->i", t, normals)).max() < 1e-5
-        assert np.einsum("ij,ij->i", t, dpdu).min() > 0.99
+        assert np.abs(np.einsum("ij,ij->i", t, normals)).max() < TANGENT_FLOAT
+        assert np.einsum("ij,ij->i", t, dpdu).min() > TANGENT_MIN_COS
         expected_w = np.sign(np.einsum("ij,ij->i", np.cross(normals, t), -dp[:, 1]))
         assert (w == expected_w).all()
         # seen from the normal's side, (x, y) turn like (right, up): with v growing down the
@@ -160,9 +162,10 @@ def test_tangents_and_normal_scale_come_from_the_file(tmp_path):
     (part,) = _load(path).parts
     assert part.normal_scale == 0.5
     assert (part.tangents[:, 3] == -1.0).all()
-    assert np.einsum("ij,ij->i", part.tangents[:, :3], part.normals).max() < 1e-5
+    assert np.einsum("ij,ij->i", part.tangents[:, :3], part.normals).max() < TANGENT_FLOAT
     dp = _face_derivatives(part)
-    assert np.einsum("ij,ij->i", part.tangents[part.indices[:, 0].astype(int), :3], dp[:, 0]).min() > 0.999
+    first = part.tangents[part.indices[:, 0].astype(int), :3]
+    assert np.einsum("ij,ij->i", first, dp[:, 0]).min() > FILE_TANGENT_MIN_COS
 
 
 def test_models_without_a_normal_map_or_uvs_load_as_before(tmp_path):
@@ -215,7 +218,7 @@ def test_a_flat_normal_map_renders_like_none(gl_clean, tmp_path):
     plain, inside, _ = _render(renderer, _load(_save(tmp_path / "plain.glb", _quad())))
     flat, inside_flat, _ = _render(renderer, _load(_save(tmp_path / "flat.glb", _quad(_map((128, 128, 255))))))
     assert (inside == inside_flat).all()
-    assert np.abs(plain - flat)[inside].max() <= 1
+    assert np.abs(plain - flat)[inside].max() <= FLAT_NORMAL_MAP_8BIT
 
 
 @pytest.mark.parametrize("name, tilt, brighter", [
@@ -233,10 +236,11 @@ def test_a_tilted_normal_map_shades_as_its_normal(gl_clean, tmp_path, name, tilt
     _, inside_t, tilted = _render(renderer, tilted_model)
     assert (inside == inside_t).all()
     plain, tilted = plain[inside].mean(0), tilted[inside].mean(0)
-    assert (tilted > plain * 1.05).all() if brighter else (tilted < plain / 1.05).all(), (name, plain, tilted)
+    changed = (tilted > plain * NORMAL_MAP_MIN_RATIO) if brighter else (tilted < plain / NORMAL_MAP_MIN_RATIO)
+    assert changed.all(), (name, plain, tilted)
     # the shading of that normal, and of no map for the plain quad
-    assert tilted == pytest.approx(np.full(3, _expected(tilted_model, rgb)), rel=0.005)
-    assert plain == pytest.approx(np.full(3, _expected(plain_model, (127.5, 127.5, 255))), rel=0.005)
+    assert tilted == pytest.approx(np.full(3, _expected(tilted_model, rgb)), rel=NORMAL_MAP_SHADING_REL)
+    assert plain == pytest.approx(np.full(3, _expected(plain_model, (127.5, 127.5, 255))), rel=NORMAL_MAP_SHADING_REL)
 
 
 def test_normal_scale_weakens_the_tilt(gl_clean, tmp_path):
@@ -247,9 +251,9 @@ def test_normal_scale_weakens_the_tilt(gl_clean, tmp_path):
     _edit_glb(path, lambda h: h["materials"][0]["normalTexture"].update(scale=0.3))
     model = _load(path)
     _, inside, lit = _render(renderer, model)
-    assert lit[inside].mean(0) == pytest.approx(np.full(3, _expected(model, rgb, 0.3)), rel=0.005)
+    assert lit[inside].mean(0) == pytest.approx(np.full(3, _expected(model, rgb, 0.3)), rel=NORMAL_MAP_SHADING_REL)
     _, _, full = _render(renderer, _load(_save(tmp_path / "full.glb", _quad(_map(rgb)))))
-    assert lit[inside].mean() < full[inside].mean() - 0.05
+    assert lit[inside].mean() < full[inside].mean() - NORMAL_SCALE_EFFECT_LINEAR
 
 
 def test_a_part_without_a_map_is_untouched_by_its_neighbours_map(gl_clean, tmp_path):
@@ -266,5 +270,5 @@ def test_a_part_without_a_map_is_untouched_by_its_neighbours_map(gl_clean, tmp_p
     cols = np.nonzero(inside.any(axis=0))[0]
     k = np.argmax(np.diff(cols))
     gap = (cols[k] + cols[k + 1]) // 2  # the middle of the gap between the quads
-    assert np.abs(with_map - without)[:, :gap].max() > 10  # the map shows on the left quad
+    assert np.abs(with_map - without)[:, :gap].max() > NORMAL_MAP_SHOWS_8BIT  # the map shows on the left quad
     assert (with_map[:, gap:] == without[:, gap:]).all()

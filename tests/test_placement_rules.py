@@ -19,7 +19,8 @@ from synthcompose.placement import PlacementRules, frame_noise, place_object, po
 from synthcompose.render import Lighting, RenderObject, Renderer
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
-from .tolerances import ground_z_tolerance
+from .tolerances import (BALANCE_FAVOURS_RATIO, CAR_YAW_TO_ROAD_DEG, GROUND_Z_M, OCCLUSION_DEPTH_MARGIN_M,
+                         ROAD_FOUND_PRECISION_MIN, ROAD_FOUND_RECALL_MIN, ground_z_tolerance)
 
 from .test_batch import H, W, write_manifest
 from .test_placement import SIZES
@@ -58,8 +59,8 @@ def test_real_pole_in_front_hides_the_inserted_car(gl_clean):
     renderer.release(passes)
     obj = ids > 0
     real_d = depth[rows, cols]
-    in_front = obj & (real_d < id_depth - 0.5)  # the real scene is clearly nearer
-    behind_ = obj & (real_d > id_depth + 0.5)
+    in_front = obj & (real_d < id_depth - OCCLUSION_DEPTH_MARGIN_M)  # the real scene is clearly nearer
+    behind_ = obj & (real_d > id_depth + OCCLUSION_DEPTH_MARGIN_M)
     assert (arrays["label_ids"][rows, cols][in_front] == POLE).sum() > 5, "the pole should cover part of the car"
     assert (out.label_ids[rows, cols][in_front] == arrays["label_ids"][rows, cols][in_front]).all()
     assert (out.rgb[rows, cols][in_front] == arrays["rgb"][rows, cols][in_front]).all()
@@ -114,8 +115,8 @@ def test_unlabelled_frame_finds_the_road_from_disparity():
     labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
     road = labels == ROAD
     true_road = arrays["label_ids"] == ROAD
-    assert (true_road[road]).mean() > 0.9  # what it calls road is road
-    assert road[true_road].mean() > 0.7  # and it finds most of it
+    assert (true_road[road]).mean() > ROAD_FOUND_PRECISION_MIN  # what it calls road is road
+    assert road[true_road].mean() > ROAD_FOUND_RECALL_MIN  # and it finds most of it
 
 
 def test_unlabelled_image_sets_in_a_batch(tmp_path):
@@ -137,7 +138,7 @@ def test_unlabelled_image_sets_in_a_batch(tmp_path):
         assert record["labels"]["source"].startswith("none")
         obj = record["objects"][0]
         m = np.array(obj["pose"]["vehicle"]["matrix"])
-        assert abs(m[2, 3]) < 0.05  # on the road plane z = 0
+        assert abs(m[2, 3]) < GROUND_Z_M  # on the road plane z = 0
     labels = cv2.imread(str(ids[0].path(out, "labelIds")), cv2.IMREAD_UNCHANGED)
     assert set(np.unique(labels)) <= {0, CAR}
 
@@ -148,7 +149,7 @@ def test_balance_favours_classes_the_dataset_lacks(tmp_path):
     counts = count_classes(root, ids)
     assert counts.get("car", 0) >= 2 and counts.get("truck", 0) == 0
     p = object_weights([1.0, 1.0], ["car", "truck"], "balance", counts)
-    assert p[1] > p[0] * 2
+    assert p[1] > p[0] * BALANCE_FAVOURS_RATIO
     assert np.allclose(object_weights([1.0, 3.0], ["car", "truck"], "weights"), [0.25, 0.75])
 
 
@@ -162,5 +163,5 @@ def test_check_placement_reports_every_object_within_limits(tmp_path, capsys):
     report = json.loads((out / "placement_check.json").read_text())
     assert report["objects"] and all(not o["failures"] for o in report["objects"])
     cars = [o for o in report["objects"] if o["name"] == "car"]
-    assert cars and all(o["yaw_to_road_deg"] is not None and o["yaw_to_road_deg"] <= 10 for o in cars)
+    assert cars and all(o["yaw_to_road_deg"] is not None and o["yaw_to_road_deg"] <= CAR_YAW_TO_ROAD_DEG for o in cars)
     assert "objects checked" in capsys.readouterr().out

@@ -19,10 +19,13 @@ from synthcompose.dataset import read_image_set
 from synthcompose.manifest import load_manifest
 from synthcompose.placement import RULE_OF
 from synthcompose.placements import placement_path, read_saved
-from synthcompose.preview_state import PASSES, Overlay, PlacementRefused, PreviewSession
+from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
 from synthcompose.synthetic import make_sample
 
 from .test_batch import write_manifest
+from .tolerances import (CHANGED_PIXEL_8BIT, OVERLAY_TEXT_CHANGED_MIN, PASS_CHANGE_MIN_SHARE, PREVIEW_MOVE_M,
+                         PREVIEW_PAN_REL, SAVED_MATRIX_ABS, VIEW_CHANGE_MIN_SHARE, WINDOW_MAX_SHARE, WINDOW_MEAN_8BIT,
+                         WINDOW_PIXEL_8BIT)
 
 W, H = 640, 320
 
@@ -40,7 +43,7 @@ def manifest(dataset, tmp_path):
 
 
 def test_headless_modules_never_import_a_window_toolkit():
-    code = ("import sys, synthcompose.cli, synthcompose.pipeline, synthcompose.batch, synthcompose.preview_state;"
+    code = ("import sys, synthcompose.cli, synthcompose.pipeline, synthcompose.batch, synthcompose.preview.session;"
             "bad = [m for m in ('glfw', 'pyglet', 'moderngl_window') if m in sys.modules]; assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -96,7 +99,7 @@ def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
         s.move(dx=0.5, dyaw_deg=10.0)  # moved by hand, as the arrow and Q keys do
         assert s.view.source == "moved"
         moved = s.view.objects[0].placement.matrix
-        assert np.hypot(*(moved[:2, 3] - before[:2, 3])) == pytest.approx(0.5, abs=1e-6)
+        assert np.hypot(*(moved[:2, 3] - before[:2, 3])) == pytest.approx(0.5, abs=PREVIEW_MOVE_M)
         path = s.save()
     assert path == placement_path(m.output, ids[0]) and path.is_file()
     saved = read_saved(m.output, ids[0])
@@ -107,13 +110,13 @@ def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     for obj, so in zip(rec["objects"], saved.objects):
         assert obj["placement_source"] == "saved"
         assert obj["placement_check"] == {"ok": True}  # the pose S saved passes the batch's rules
-        assert np.allclose(obj["pose"]["vehicle"]["matrix"], so.matrix, atol=1e-5)
+        assert np.allclose(obj["pose"]["vehicle"]["matrix"], so.matrix, atol=SAVED_MATRIX_ABS)
     other = json.loads(ids[1].path(m.output, "record").read_text())
     assert "placement_file" not in other and all(o["placement_source"] == "random" for o in other["objects"])
     # the window shows the saved placement next time
     with _loaded(m, ids[0].name) as s:
         assert s.view.source == "saved"
-        assert np.allclose(s.view.objects[0].placement.matrix, moved, atol=1e-5)
+        assert np.allclose(s.view.objects[0].placement.matrix, moved, atol=SAVED_MATRIX_ABS)
     # resume keeps it while the file is unchanged, redoes the set when the file changes
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     summary = json.loads((m.output / "summary.json").read_text())
@@ -158,11 +161,11 @@ def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_
         assert not s.placement_file.exists()
         s.move(dy=-4.0)  # back where it was: the rules hold again
         assert s.view.verdict.ok, str(s.view.verdict)
-        assert np.allclose(s.view.objects[0].placement.matrix[:2, 3], start[:2, 3], atol=1e-6)
+        assert np.allclose(s.view.objects[0].placement.matrix[:2, 3], start[:2, 3], atol=PREVIEW_MOVE_M)
         path = s.save()
         assert path.is_file()
         saved = read_saved(m.output, ids[0])
-        assert np.allclose(saved.objects[0].matrix, s.view.objects[0].placement.matrix, atol=1e-5)
+        assert np.allclose(saved.objects[0].matrix, s.view.objects[0].placement.matrix, atol=SAVED_MATRIX_ABS)
         # into a collision: the first object 1 m ahead of the second, where they stand on one surface
         same = [k for k, o in enumerate(s.view.objects) if o.allowed == s.view.objects[0].allowed]
         if len(same) > 1:
@@ -215,7 +218,8 @@ import numpy as np
 import glfw
 from PIL import ImageGrab
 from synthcompose.manifest import load_manifest
-from synthcompose.preview import PreviewWindow, _look_at
+from synthcompose.preview import PreviewWindow
+from synthcompose.render.transforms import look_at
 
 manifest, frame, out = sys.argv[1:4]
 w = PreviewWindow(load_manifest(manifest), frame, quiet=True)
@@ -272,7 +276,7 @@ drag(glfw.MOUSE_BUTTON_LEFT, 60, 25)
 got["view_orbit"], got["orbit1"] = read(), orbit()
 drag(glfw.MOUSE_BUTTON_RIGHT, 40, 30)
 got["view_pan"], got["orbit2"] = read(), orbit()
-camera = _look_at(w.orbit.eye, w.orbit.target)  # rows 0, 1: the camera's right and up (the pan keeps them)
+camera = look_at(w.orbit.eye, w.orbit.target)  # rows 0, 1: the camera's right and up (the pan keeps them)
 got["pan_right"], got["pan_up"] = camera[0, :3], camera[1, :3]
 w.on_scroll(w.window, 0.0, 2.0)  # wheel up twice
 got["view_zoom"], got["orbit3"] = read(), orbit()
@@ -344,7 +348,8 @@ def _same(img, ref, where=None):
     diff = np.abs(img.astype(int) - ref.astype(int)).max(axis=2)
     if where is not None:
         diff = diff[where]
-    assert diff.mean() < 1.0 and (diff > 8).mean() < 0.005, (diff.mean(), (diff > 8).mean())
+    over = (diff > WINDOW_PIXEL_8BIT).mean()
+    assert diff.mean() < WINDOW_MEAN_8BIT and over < WINDOW_MAX_SHARE, (diff.mean(), over)
 
 
 def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(window_run):
@@ -354,7 +359,8 @@ def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(win
     before, after = got["before"], got["after"]
     assert after.shape == (H, W, 3)  # window sized to the image
     assert after.std() > 10 and (after.max(axis=2) > 0).mean() > 0.02  # not blank
-    assert (np.abs(after.astype(int) - before).max(axis=2) > 30).mean() > 0.3  # the key changed the pass
+    changed = np.abs(after.astype(int) - before).max(axis=2) > CHANGED_PIXEL_8BIT
+    assert changed.mean() > PASS_CHANGE_MIN_SHARE  # the key changed the pass
     # the same view from the headless renderer (EGL, same pipeline, same seed: same placement),
     # everywhere but under the overlay's text panels
     s = PreviewSession(load_manifest(manifest), ident.name)
@@ -378,8 +384,8 @@ def test_overlay_shows_pass_image_set_and_verdict_over_the_view(window_run):
     assert lines[0].startswith("2: Irpv") and ident.key in lines[0]
     assert lines[2] == "placement OK"
     on, off, text = got["after"].astype(int), got["after_no_overlay"].astype(int), got["mask"]
-    changed = np.abs(on - off).max(axis=2) > 8
-    assert changed[text].mean() > 0.3  # the screenshot differs where the overlay is...
+    changed = np.abs(on - off).max(axis=2) > WINDOW_PIXEL_8BIT
+    assert changed[text].mean() > OVERLAY_TEXT_CHANGED_MIN  # the screenshot differs where the overlay is...
     assert not changed[~text].any()  # ...and nowhere else
     assert got["mask_help"].sum() > got["mask"].sum()  # H: the keys on screen
     # the 3D view's overlay: the legend of colours at the bottom
@@ -398,15 +404,15 @@ def test_mouse_orbits_pans_and_zooms_the_3d_view(window_run):
     assert np.allclose(o2[:3], o1[:3])
     moved = o2[3:] - o1[3:]
     k = o1[2] * 0.0015
-    assert np.linalg.norm(moved) == pytest.approx(k * 50.0, rel=1e-6)
+    assert np.linalg.norm(moved) == pytest.approx(k * 50.0, rel=PREVIEW_PAN_REL)
     assert moved @ got["pan_right"] == pytest.approx(-40 * k) and moved @ got["pan_up"] == pytest.approx(30 * k)
     # wheel up twice: 10 % closer per step, nothing else changes
     assert o3[2] == pytest.approx(o2[2] * 0.81) and np.allclose(np.delete(o3, 2), np.delete(o2, 2))
     # and the picture follows each of them
     outside = ~got["mask_3d"]
     for a, b in (("view3d", "view_orbit"), ("view_orbit", "view_pan"), ("view_pan", "view_zoom")):
-        changed = (np.abs(got[a].astype(int) - got[b]).max(axis=2) > 30)[outside].mean()
-        assert changed > 0.05, (a, b, changed)
+        changed = (np.abs(got[a].astype(int) - got[b]).max(axis=2) > CHANGED_PIXEL_8BIT)[outside].mean()
+        assert changed > VIEW_CHANGE_MIN_SHARE, (a, b, changed)
     assert got["view3d"].std() > 5  # the point cloud is drawn
 
 
@@ -422,4 +428,4 @@ def test_s_key_refuses_a_pose_that_breaks_the_rules_shift_s_saves_anyway(window_
     assert "anyway" in str(got["anyway_message"]) and got["anyway_exists"]
     assert str(got["verdict_back"]) == "placement OK"
     assert str(got["saved_message"]).startswith("saved placement:") and "anyway" not in str(got["saved_message"])
-    assert np.allclose(got["saved_matrix"], got["shown_matrix"], atol=1e-5)
+    assert np.allclose(got["saved_matrix"], got["shown_matrix"], atol=SAVED_MATRIX_ABS)

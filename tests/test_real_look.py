@@ -18,6 +18,8 @@ from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import estimate_lighting
 from synthcompose.surfaces import frame_for
 
+from .tolerances import CONTACT_DEPTH_REL, REAL_TONE_IN_RANGE_MIN
+
 REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
 pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a labelled Cityscapes root) not set")
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
@@ -70,5 +72,5 @@ def test_inserted_cars_take_the_frames_tone_and_stand_on_its_ground(tmp_path):
                                    labels=src.label_ids)
             if c is not None:
                 contacts.append(abs(c))
-    assert cars >= 5 and inside >= 0.8 * cars, (inside, cars)
-    assert contacts and np.median(contacts) <= 0.05, contacts
+    assert cars >= 5 and inside >= REAL_TONE_IN_RANGE_MIN * cars, (inside, cars)
+    assert contacts and np.median(contacts) <= CONTACT_DEPTH_REL, contacts

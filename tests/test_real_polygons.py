@@ -13,7 +13,8 @@ import pytest
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.polygons import frame_polygons
 
-from .test_annotations import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK, _drawn_back
+from .test_annotations import _drawn_back
+from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
 REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
 pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a labelled Cityscapes root) not set")

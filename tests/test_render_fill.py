@@ -9,6 +9,9 @@ from synthcompose.models import MeshPart, Model
 from synthcompose.render import Lighting, RenderObject, Renderer
 
 from .test_geometry import make_camera
+from .tolerances import (AA_ROWS_MIXED_MIN, AA_SHARE_STEP_MAX, EDGE_GROUND_EXCESS_LINEAR, PLANE_SEAM_LINEAR,
+                         RESOLVE_FLOAT_EPS, RESOLVE_SUBTRACT_EPS, SHADING_MODES_EDGE_LINEAR,
+                         SHADING_MODES_EDGE_QUANTILE, SHADING_MODES_INSIDE_LINEAR, SHADING_MODES_PLANE)
 
 LIGHT = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.5)
 RED, BLUE = (0.6, 0.05, 0.05), (0.05, 0.1, 0.6)
@@ -54,12 +57,12 @@ def test_object_edges_are_antialiased_and_mix_object_and_ground(gl_clean, shadin
     assert (edge & ~ndimage.binary_dilation(inside, np.ones((3, 3), bool))).sum() == 0
     assert len(np.unique(np.round(alpha[edge] * 4))) >= 3  # several coverage levels (4 samples)
     # objc carries the object's share: its coverage is alpha, and irpv = objc + (1 - alpha) * ground
-    assert np.allclose(objc[..., 3], alpha, atol=1e-5)
+    assert np.allclose(objc[..., 3], alpha, atol=RESOLVE_FLOAT_EPS)
     ground = irpv - objc[..., :3]
     e = edge & (p["plane"][..., 1] > 0.999 - alpha)  # the rest of the pixel is ground plane
     near_ground = ndimage.grey_dilation(np.where(alpha < 0.01, irpv[..., 0], -1.0), size=5)
-    assert np.all(ground[e][:, 0] >= -1e-4)
-    assert np.all(ground[e][:, 0] <= near_ground[e] * (1 - alpha[e]) + 0.02)
+    assert np.all(ground[e][:, 0] >= -RESOLVE_SUBTRACT_EPS)
+    assert np.all(ground[e][:, 0] <= near_ground[e] * (1 - alpha[e]) + EDGE_GROUND_EXCESS_LINEAR)
 
 
 @pytest.mark.parametrize("shading", ["pixel", "sample"])
@@ -78,21 +81,21 @@ def test_the_edge_between_two_materials_is_antialiased(gl_clean, shading):
     rows = np.flatnonzero(red.any(axis=1) & blue.any(axis=1))
     assert len(rows) > 50
     with_mix = [r for r in rows if mixed[r].any()]
-    assert len(with_mix) >= 0.6 * len(rows)  # a slanted edge: most rows have a partly red pixel
+    assert len(with_mix) >= AA_ROWS_MIXED_MIN * len(rows)  # a slanted edge: most rows have a partly red pixel
     for r in with_mix:
         cols = np.flatnonzero(inside[r])
         s = share[r, cols]
-        assert np.all(np.diff(s) <= 0.02)  # red on the left, blue on the right, monotone
+        assert np.all(np.diff(s) <= AA_SHARE_STEP_MAX)  # red on the left, blue on the right, monotone
 
 
 def test_per_pixel_and_per_sample_shading_agree(gl_clean):
     a, b = _render(gl_clean, "pixel"), _render(gl_clean, "sample")
     assert np.array_equal(a["alpha"], b["alpha"])  # the same coverage
-    assert np.allclose(a["plane"], b["plane"], atol=1e-4)
+    assert np.allclose(a["plane"], b["plane"], atol=SHADING_MODES_PLANE)
     diff = np.abs(a["irpv"][..., :3] - b["irpv"][..., :3]).max(axis=-1)
     inside = ndimage.binary_erosion(a["alpha"] >= 0.999, np.ones((3, 3), bool))
-    assert diff[inside].max() < 0.01  # away from edges: the same light at the same point
-    assert np.quantile(diff, 0.99) < 0.02  # at the edges, close
+    assert diff[inside].max() < SHADING_MODES_INSIDE_LINEAR  # away from edges: the same light at the same point
+    assert np.quantile(diff, SHADING_MODES_EDGE_QUANTILE) < SHADING_MODES_EDGE_LINEAR  # at the edges, close
     with pytest.raises(ValueError, match="shading"):
         Renderer(gl_clean, shading="fast")
 
@@ -114,5 +117,6 @@ def test_the_ground_planes_border_leaves_no_seam(gl_clean, shading):
     border = far & (cover > 0.01) & (cover < 0.99)
     assert border.sum() > 100
     diff = np.abs(p["irpv"][..., :3] - p["ir"][..., :3]).max(axis=-1)
-    assert diff[border].max() <= 1e-3, (diff[border].max(), np.median(p["ir"][..., 0][far & (cover > 0.99)]))
-    assert diff[far & (cover > 0.99)].max() <= 1e-3
+    assert diff[border].max() <= PLANE_SEAM_LINEAR, \
+        (diff[border].max(), np.median(p["ir"][..., 0][far & (cover > 0.99)]))
+    assert diff[far & (cover > 0.99)].max() <= PLANE_SEAM_LINEAR

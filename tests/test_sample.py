@@ -14,6 +14,11 @@ from synthcompose.geometry import disparity_to_depth, point_cloud
 from synthcompose.labels import KNOWN_IDS, label_id
 from synthcompose.synthetic import StreetScene, make_sample, random_scene, render_scene
 
+from .tolerances import (BACKPROJECTED_HEIGHT_M, CAMERA_OFF_CENTRE_M, EXACT_DEPTH_HEIGHT_M, EXACT_HOLES_SHARE,
+                         FLOAT64_SLACK_M, GROUND_NORMAL_FD, GROUND_ORIGIN_EXACT_M, KERB_DIRECTION_DEG, POLE_BASE_M,
+                         TILT_SHOWS_M, TURNED_DEPTH_MEDIAN_REL, TURNED_DEPTH_REL, TURNED_DEPTH_SHARE,
+                         TURNED_LABELS_DIFFER_MAX)
+
 W, H, SEED, COUNT = 512, 256, 7, 2
 KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera")
 ROAD, SIDEWALK, POLE, CAR, SKY, EGO = (label_id(n) for n in ("road", "sidewalk", "pole", "car", "sky", "ego vehicle"))
@@ -65,12 +70,12 @@ def test_back_projected_road_and_sidewalk_heights(sample_root):
         x, y, z = cloud.vehicle.T
         road = near & (cloud.labels == ROAD)
         assert road.sum() > 1000
-        assert np.abs(z[road]).max() < 0.02
+        assert np.abs(z[road]).max() < BACKPROJECTED_HEIGHT_M
         # sidewalk tops: away from the vertical kerb faces (along the road and the cross street)
         kerb_x = scene.crossing[1]
         top = near & (cloud.labels == SIDEWALK) & (np.abs(y) > scene.road_half_width + 0.05) \
             & (np.abs(x - kerb_x) > 0.1)
-        assert np.abs(z[top] - scene.kerb_height).max() < 0.02
+        assert np.abs(z[top] - scene.kerb_height).max() < BACKPROJECTED_HEIGHT_M
         checked_sidewalk += top.sum()
     assert checked_sidewalk > 1000
 
@@ -82,7 +87,7 @@ def test_exact_depth_matches_surfaces(rendered):
         x, y, z = cloud.vehicle.T
         road = cloud.labels == ROAD
         close = road & (cloud.optical[:, 2] < 60)
-        assert np.abs(z[close]).max() < 2e-3
+        assert np.abs(z[close]).max() < EXACT_DEPTH_HEIGHT_M
         assert (scene.surface_label(x[road], y[road]) == "road").all()
         # everything except sky and ego vehicle has a finite depth
         finite = np.isfinite(arr["depth"])
@@ -98,7 +103,7 @@ def test_disparity_encoding_and_holes(rendered):
         expected = np.rint(cam.baseline * cam.fx / depth[valid].astype(np.float64) * 256) + 1
         assert np.array_equal(disp[valid], np.clip(expected, 1, 65535).astype(np.uint16))
         holes = (disp == 0) & np.isfinite(depth)
-        assert 0.01 < holes.sum() / np.isfinite(depth).sum() < 0.03
+        assert EXACT_HOLES_SHARE[0] < holes.sum() / np.isfinite(depth).sum() < EXACT_HOLES_SHARE[1]
 
 
 def test_labels_and_instance_ids(rendered):
@@ -216,8 +221,8 @@ def test_tilted_street_frame_and_parameters(tilted):
     assert (scene.slope, scene.camber) == (0.04, 0.025)
     # the camera stayed where it was: over the road, near the centre line; ground 0 under V's origin
     a, b = scene.to_street(cam.x, cam.y)
-    assert abs(float(b)) < 0.2 and str(scene.surface_label(cam.x, cam.y)) == "road"
-    assert float(scene.ground_height(0.0, 0.0)) == pytest.approx(0.0, abs=1e-12)
+    assert abs(float(b)) < CAMERA_OFF_CENTRE_M and str(scene.surface_label(cam.x, cam.y)) == "road"
+    assert float(scene.ground_height(0.0, 0.0)) == pytest.approx(0.0, abs=GROUND_ORIGIN_EXACT_M)
     # frames round-trip; road_direction is the unit street direction, away from the camera
     x, y = np.random.default_rng(0).uniform(-20, 80, (2, 50))
     assert np.allclose(scene.to_vehicle(*scene.to_street(x, y)), (x, y))
@@ -249,7 +254,7 @@ def test_ground_height_slope_camber_and_normals(tilted):
         gy = (scene.ground_height(x, y + e) - scene.ground_height(x, y - e)) / (2 * e)
         n = np.stack([-gx, -gy, np.ones_like(gx)], axis=1)
         n /= np.linalg.norm(n, axis=1, keepdims=True)
-        assert np.allclose(scene.ground_normal(x, y), n, atol=1e-6)
+        assert np.allclose(scene.ground_normal(x, y), n, atol=GROUND_NORMAL_FD)
 
 
 def test_tilted_back_projection_matches_ground_height(tilted):
@@ -263,9 +268,9 @@ def test_tilted_back_projection_matches_ground_height(tilted):
         road = near & (cloud.labels == ROAD)
         top = near & (cloud.labels == SIDEWALK)  # off the steps: no kerb face points
         assert road.sum() > 2000 and top.sum() > 500
-        assert err[road].max() < 0.02 and err[top].max() < 0.02
+        assert err[road].max() < BACKPROJECTED_HEIGHT_M and err[top].max() < BACKPROJECTED_HEIGHT_M
         # the ground really is tilted: the flat z = 0 / kerb-height model is far off
-        assert np.abs(z[road]).max() > 0.3
+        assert np.abs(z[road]).max() > TILT_SHOWS_M
 
 
 def test_tilted_exact_depth_matches_surfaces(tilted):
@@ -276,15 +281,16 @@ def test_tilted_exact_depth_matches_surfaces(tilted):
         close = cloud.optical[:, 2] < 60
         road = cloud.labels == ROAD
         assert (scene.surface_label(x[road], y[road]) == "road").all()
-        assert np.abs(z - scene.ground_height(x, y))[road & close].max() < 2e-3
+        assert np.abs(z - scene.ground_height(x, y))[road & close].max() < EXACT_DEPTH_HEIGHT_M
         # sidewalk: tops at the ground height, kerb faces between road edge and sidewalk top
         walk = close & (cloud.labels == SIDEWALK)
         a, b = scene.to_street(x, y)
         face = walk & ~_off_steps(scene, x, y, 0.002)
         edge = scene.road_edge_height(a)
-        assert np.abs(z - scene.ground_height(x, y))[walk & ~face].max() < 2e-3
+        assert np.abs(z - scene.ground_height(x, y))[walk & ~face].max() < EXACT_DEPTH_HEIGHT_M
         assert face.sum() > 50
-        assert ((z[face] > edge[face] - 2e-3) & (z[face] < edge[face] + scene.kerb_height + 2e-3)).all()
+        assert ((z[face] > edge[face] - EXACT_DEPTH_HEIGHT_M)
+                & (z[face] < edge[face] + scene.kerb_height + EXACT_DEPTH_HEIGHT_M)).all()
         assert (np.isfinite(arr["depth"]) == ~np.isin(arr["label_ids"], [SKY, EGO])).all()
 
 
@@ -318,9 +324,9 @@ def test_road_direction_matches_kerb_lines(tilted):
     for scene, arr in tilted:
         d = scene.road_direction(np.array([20.0]), np.array([0.0]))[0]
         expected = np.degrees(np.arctan2(d[1], d[0]))
-        assert abs(_kerb_direction_deg(scene, arr) - expected) < 1.0
+        assert abs(_kerb_direction_deg(scene, arr) - expected) < KERB_DIRECTION_DEG
     flat = scene_of(0)
-    assert abs(_kerb_direction_deg(flat, render_scene(flat))) < 1.0
+    assert abs(_kerb_direction_deg(flat, render_scene(flat))) < KERB_DIRECTION_DEG
 
 
 def test_turning_the_street_equals_turning_the_camera(tilted):
@@ -330,10 +336,10 @@ def test_turning_the_street_equals_turning_the_camera(tilted):
     same = dataclasses.replace(scene, street_heading=0.0, street_origin=(0.0, 0.0),
                                camera=dataclasses.replace(scene.camera, yaw=scene.camera.yaw - h))
     other = render_scene(same)
-    assert (arr["label_ids"] != other["label_ids"]).mean() < 1e-3
+    assert (arr["label_ids"] != other["label_ids"]).mean() < TURNED_LABELS_DIFFER_MAX
     finite = np.isfinite(arr["depth"]) & np.isfinite(other["depth"])
     rel = np.abs(arr["depth"][finite] / other["depth"][finite] - 1)
-    assert np.median(rel) < 1e-6 and (rel < 1e-4).mean() > 0.999
+    assert np.median(rel) < TURNED_DEPTH_MEDIAN_REL and (rel < TURNED_DEPTH_REL).mean() > TURNED_DEPTH_SHARE
 
 
 def test_objects_stand_on_the_true_ground(tilted):
@@ -342,8 +348,8 @@ def test_objects_stand_on_the_true_ground(tilted):
             ang = np.linspace(0, 2 * np.pi, 16)
             x, y = scene.to_vehicle(pole.x + pole.radius * np.cos(ang), pole.y + pole.radius * np.sin(ang))
             ground = scene.ground_height(x, y)
-            assert ground.min() >= pole.base_z - 1e-9
-            assert ground.min() - pole.base_z < 1e-3 + pole.radius * abs(scene.slope)
+            assert ground.min() >= pole.base_z - FLOAT64_SLACK_M
+            assert ground.min() - pole.base_z < POLE_BASE_M + pole.radius * abs(scene.slope)
         wheels = [b for b in scene.boxes if b.label == "car" and b.color == (26, 26, 28)]
         assert wheels and all(b.rotation is not None for b in wheels)  # cars tilt with the road
         for box in wheels + [b for b in scene.boxes if b.label == "person"][::3]:
@@ -351,10 +357,10 @@ def test_objects_stand_on_the_true_ground(tilted):
             x, y = scene.to_vehicle(bottom[:, 0], bottom[:, 1])
             ground = scene.ground_height(x, y)
             if box.label == "car":  # wheels: their bottom face lies in the road plane
-                assert np.allclose(bottom[:, 2], ground, atol=1e-9)
+                assert np.allclose(bottom[:, 2], ground, atol=FLOAT64_SLACK_M)
             else:  # upright pedestrians: sunk by at most the grade over their footprint
-                assert (bottom[:, 2] <= ground + 1e-9).all()
-                assert (ground - bottom[:, 2]).max() < abs(scene.slope) * 0.3 + 1e-9
+                assert (bottom[:, 2] <= ground + FLOAT64_SLACK_M).all()
+                assert (ground - bottom[:, 2]).max() < abs(scene.slope) * 0.3 + FLOAT64_SLACK_M
         # exact containment test in V, also for the tilted car boxes
         body = next(b for b in scene.boxes if b.label == "car")
         centre = scene.points_to_vehicle(body.corners().mean(axis=0)[None])
@@ -393,4 +399,4 @@ def test_option_ranges_are_checked():
     cloud = point_cloud(arr["depth"], arr["label_ids"], scene.camera)
     x, y, z = cloud.vehicle.astype(np.float64).T
     walk = (cloud.labels == SIDEWALK) & (cloud.optical[:, 2] < 60)
-    assert np.abs(z - scene.ground_height(x, y))[walk].max() < 2e-3
+    assert np.abs(z - scene.ground_height(x, y))[walk].max() < EXACT_DEPTH_HEIGHT_M

@@ -19,6 +19,10 @@ from synthcompose.labels import label_id
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 from synthcompose.synthetic.stereo_stats import stereo_stats
 
+from .tolerances import (CLEAN_PHOTO_NOISE, EGO_INVALID_MIN, EXACT_NORMALS_UP_MIN, EXACT_RESIDUAL_MAX_PX,
+                         EXACT_VALID_MIN, FATTENING_MIN, FATTENING_REL, OCCLUSION_LEFT_INVALID_MIN,
+                         OCCLUSION_RIGHT_INVALID_MAX, REAL_PHOTO_RANGES, REAL_STEREO_RANGES, SKY_INVALID_SHARE)
+
 W, H = 1024, 512
 SKY, EGO = label_id("sky"), label_id("ego vehicle")
 
@@ -36,14 +40,7 @@ def frames():
     return out
 
 
-@pytest.mark.parametrize("key, lo, hi", [
-    ("valid", 0.78, 0.90),             # real 81.7-87.0 %
-    ("left_band_valid", 0.30, 0.56),   # real 36.7-50.1 %
-    ("residual_med", 0.17, 0.34),      # real 0.20-0.29 px
-    ("residual_p90", 0.28, 0.70),      # real 0.32-0.64 px
-    ("normals_up", 0.40, 0.58),        # real 45.6-53.4 %
-    ("sigma_d", 0.24, 0.45),           # real 0.27-0.38 px
-])
+@pytest.mark.parametrize("key, lo, hi", [(key, lo, hi) for key, (lo, hi) in REAL_STEREO_RANGES.items()])
 def test_figures_in_the_real_ranges(frames, key, lo, hi):
     for _, _, stats in frames:
         assert lo <= stats[key] <= hi, (key, stats[key])
@@ -53,7 +50,8 @@ def test_exact_disparity_is_far_from_real(frames):
     scene, _, _ = frames[0]
     exact = render_scene(scene, stereo="exact")
     stats = stereo_stats(exact["disparity"], scene.camera, exact["label_ids"])
-    assert stats["residual_med"] < 0.01 and stats["normals_up"] > 0.95 and stats["valid"] > 0.88
+    assert stats["residual_med"] < EXACT_RESIDUAL_MAX_PX and stats["normals_up"] > EXACT_NORMALS_UP_MIN
+    assert stats["valid"] > EXACT_VALID_MIN
 
 
 def test_holes_where_real_ones_are(frames):
@@ -61,8 +59,9 @@ def test_holes_where_real_ones_are(frames):
         d, labels = arrays["disparity"], arrays["label_ids"]
         sky, ego = labels == SKY, labels == EGO
         if sky.sum() > 500:
-            assert 0.1 < (d[sky] == 0).mean() < 0.6  # real: 23-37 % of the sky invalid
-        assert (d[ego] == 0).mean() > 0.7  # real bonnets: 80-88 % invalid
+            lo, hi = SKY_INVALID_SHARE  # real: 23-37 % of the sky invalid
+            assert lo < (d[sky] == 0).mean() < hi
+        assert (d[ego] == 0).mean() > EGO_INVALID_MIN  # real bonnets: 80-88 % invalid
         assert (d[:15] == 0).all() and (d[:, :5] == 0).all() and (d[:, -5:] == 0).all()  # border
         # 2x2 blocks only at 2048 px: here every pixel is the matcher's own
         assert not (d[:, 0::2] == d[:, 1::2]).all()
@@ -91,10 +90,10 @@ def test_occlusion_shadow_left_of_a_near_object():
         left_invalid.append((d[r, c0 - 6:c0 - 1] == 0).mean())
         right = d[r, c1 + 1:c1 + 3].astype(float)
         right_invalid.append((right == 0).mean())
-        right_fat.append(np.mean(np.abs(right - d_pole) < 0.3 * d_pole))
-    assert np.mean(left_invalid) > 0.5
-    assert np.mean(right_invalid) < 0.3
-    assert np.mean(right_fat) > 0.3
+        right_fat.append(np.mean(np.abs(right - d_pole) < FATTENING_REL * d_pole))
+    assert np.mean(left_invalid) > OCCLUSION_LEFT_INVALID_MIN
+    assert np.mean(right_invalid) < OCCLUSION_RIGHT_INVALID_MAX
+    assert np.mean(right_fat) > FATTENING_MIN
 
 
 def test_same_seed_same_bytes_and_exact_mode_unchanged(tmp_path):
@@ -119,14 +118,7 @@ def test_same_seed_same_bytes_and_exact_mode_unchanged(tmp_path):
     assert np.array_equal(written, again)
 
 
-@pytest.mark.parametrize("key, lo, hi", [
-    ("v_median", 45, 110),     # real 49-102 (HSV V, 0-255)
-    ("v_p5", 18, 52),          # real 25-39
-    ("s_median", 20, 55),      # real 31-52
-    ("road_green", 1.05, 1.25),  # real 1.08-1.20: the greenish cast
-    ("sky_v", 175, 240),       # real 195-236
-    ("noise", 0.2, 1.0),       # real 0.38-0.47 at 2048 px; the clean shading has 2.1
-])
+@pytest.mark.parametrize("key, lo, hi", [(key, lo, hi) for key, (lo, hi) in REAL_PHOTO_RANGES.items()])
 def test_photo_figures_in_the_real_ranges(frames, key, lo, hi):
     from synthcompose.synthetic.photo_stats import photo_stats
 
@@ -145,4 +137,4 @@ def test_clean_photo_keeps_the_shading(frames):
     exact = render_scene(scene, stereo="exact")
     assert np.array_equal(clean["disparity"], exact["disparity"])
     assert np.array_equal(clean["label_ids"], arrays["label_ids"])
-    assert photo_stats(clean["rgb"])["noise"] > 1.5 > photo_stats(arrays["rgb"])["noise"]
+    assert photo_stats(clean["rgb"])["noise"] > CLEAN_PHOTO_NOISE > photo_stats(arrays["rgb"])["noise"]

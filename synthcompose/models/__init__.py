@@ -3,8 +3,8 @@
 metres, footprint centred, lowest point at z = 0); :mod:`.load` reads files, :mod:`.builtin`
 builds the models named ``builtin:<name>``."""
 from .builtin import BUILTINS, box_parts, traffic_sign_parts
-from .load import load_model, model_digest
-from .mesh import BUILTIN_PREFIX, GLASS_RGB, MAX_TRIANGLES, NEUTRAL_PLATE, MeshPart, Model, vertex_tangents
+from .load import MAX_TRIANGLES, load_model, model_digest
+from .mesh import BUILTIN_PREFIX, GLASS_RGB, NEUTRAL_PLATE, MeshPart, Model, vertex_tangents
 
 __all__ = ["BUILTINS", "BUILTIN_PREFIX", "GLASS_RGB", "MAX_TRIANGLES", "NEUTRAL_PLATE", "MeshPart", "Model",
            "box_parts", "load_model", "model_digest", "traffic_sign_parts", "vertex_tangents"]

@@ -14,7 +14,7 @@ import numpy as np
 from ..colour import srgb_to_linear
 from ..errors import ModelError
 from .builtin import BUILTINS
-from .mesh import (_AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MAX_TRIANGLES, MeshPart, Model, _finish_part,
+from .mesh import (_AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MeshPart, Model, _finish_part,
                    _part_from_trimesh)
 
 
@@ -24,6 +24,10 @@ from .mesh import (_AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MAX_TRIANGLES, MeshPar
 # the scales (the renderer does not use material names)
 _MATERIAL_KEY = "synthcompose-normal-mapped-material-{}"
 _GLB_MAGIC, _GLB_JSON = 0x46546C67, 0x4E4F534A
+
+
+#: a model above this many triangles is refused rather than rendered slowly
+MAX_TRIANGLES = 2_000_000
 
 
 def _gltf_json(path: Path, data: bytes) -> dict | None:

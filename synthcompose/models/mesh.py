@@ -18,8 +18,6 @@ from ..colour import srgb_to_linear
 BUILTIN_PREFIX = "builtin:"
 #: opaque stand-in colour for transparent glass (linear RGB)
 GLASS_RGB = np.array([0.015, 0.02, 0.025], np.float32)
-#: a model above this many triangles is refused rather than rendered slowly
-MAX_TRIANGLES = 2_000_000
 
 #: textured materials with such names are drawn blank (:data:`NEUTRAL_PLATE`, linear RGBA)
 _NEUTRAL = re.compile(r"licen[cs]e|plate|decal|logo|badge", re.IGNORECASE)
