@@ -44,13 +44,12 @@ from pycocotools import mask as mask_utils
 from scipy.spatial.transform import Rotation
 
 from .camera import Camera
-from .dataset import ImageSetId
+from .dataset import ImageSetId, read_polygons
 from .errors import InputError
 from .fileio import read_json, write_json
 from .placement import box_corners
 from .polygons import frame_polygons, mask_polygon
 from .record import ImageSetRecord, ObjectRecord, read_record
-from .render import Roi
 
 log = logging.getLogger("synthcompose")
 
@@ -60,26 +59,6 @@ COCO_NAME = "coco_instances.json"
 
 
 # ------------------------------------------------------------------------------- 2D boxes
-def mask_box(mask: np.ndarray, x_offset: int = 0, y_offset: int = 0) -> Box | None:
-    """[x0, y0, x1, y1] of the True pixels of an (H, W) mask (+ offsets), or None if empty."""
-    cols = np.flatnonzero(mask.any(axis=0))
-    if cols.size == 0:
-        return None
-    rows = np.flatnonzero(mask.any(axis=1))
-    return [int(cols[0]) + x_offset, int(rows[0]) + y_offset, int(cols[-1]) + 1 + x_offset,
-            int(rows[-1]) + 1 + y_offset]
-
-
-def amodal_boxes(ids: np.ndarray, roi: Roi, count: int) -> list[Box | None]:
-    """Amodal 2D box of each object 1..count in the full frame.
-
-    ``ids`` (roi.height, roi.width) uint32: the render's ``id`` pass (object index 1..K of the
-    full silhouette at each pixel centre, before occlusion by the real scene). The ROI lies
-    inside the image, so the boxes are clipped to it. Returns a list of length ``count``.
-    """
-    return [mask_box(ids == k, roi.x0, roi.y0) for k in range(1, count + 1)]
-
-
 def xywh(box: Box) -> list[int]:
     """[x0, y0, x1, y1] -> [x0, y0, w, h]."""
     return [box[0], box[1], box[2] - box[0], box[3] - box[1]]
@@ -98,34 +77,6 @@ def decode_rle(rle: dict[str, Any]) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------- polygons
-def polygon_instance_counts(source: Path) -> dict[int, int]:
-    """Per class id with instances: how many entries the input's polygons file numbers
-    (cityscapesScripts counts every entry of the class but its groups and deleted ones), so
-    that an inserted instance appended after them gets the id its position gives it."""
-    counts: dict[int, int] = {}
-    for obj in _polygon_entries(source, read_json(source)):
-        label = name2label.get(obj["label"])
-        if label is not None and label.hasInstances and not obj.get("deleted"):
-            counts[label.id] = counts.get(label.id, 0) + 1
-    return counts
-
-
-def _polygon_entries(source: Path, data: Any) -> list[dict[str, Any]]:
-    """The entries of an input polygons file, each checked to be what cityscapesScripts draws:
-    an object with a string ``label`` and a ``polygon`` of [x, y] number pairs."""
-    if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
-        raise InputError(source, "polygons JSON must be an object with an 'objects' list")
-    for i, obj in enumerate(data["objects"]):
-        if not isinstance(obj, dict) or not isinstance(obj.get("label"), str):
-            raise InputError(source, f"polygons JSON entry {i} has no 'label' string")
-        poly = obj.get("polygon")
-        if not isinstance(poly, list) or not all(
-                isinstance(p, list) and len(p) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                                          for v in p) for p in poly):
-            raise InputError(source, f"polygons JSON entry {i} ({obj['label']!r}) has no 'polygon' list of [x, y]")
-    return data["objects"]
-
-
 def polygons_document(source: Path | None, objects: Sequence[ObjectRecord], visible: np.ndarray,
                       label_ids: np.ndarray, instance_ids: np.ndarray) -> dict[str, Any]:
     """The gtFine polygons JSON of an augmented image set: it draws back (cityscapesScripts)
@@ -143,8 +94,7 @@ def polygons_document(source: Path | None, objects: Sequence[ObjectRecord], visi
     if source is None:
         doc["objects"] = frame_polygons(label_ids, instance_ids)
         return doc
-    data = read_json(source)
-    entries = _polygon_entries(source, data)
+    data, entries = read_polygons(source)
     if (data.get("imgWidth"), data.get("imgHeight")) != (w, h):
         raise InputError(source, f"polygons JSON is for {data.get('imgWidth')}x{data.get('imgHeight')} "
                                  f"but the image is {w}x{h}")

@@ -14,12 +14,14 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from cityscapesscripts.helpers.labels import name2label
 
 from .camera import Camera
 from .errors import InputError
-from .fileio import decode_disparity, map_threads, read_png
+from .fileio import decode_disparity, map_threads, read_json, read_png
 from .labels import KNOWN_IDS
 
 _NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
@@ -193,3 +195,39 @@ def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
         raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")
     check_disparity(disp_path, disparity, w)
     return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled)
+
+
+# ------------------------------------------------------------ input polygons (gtFine)
+def polygon_instance_counts(source: Path) -> dict[int, int]:
+    """Per class id with instances: how many entries the input's polygons file numbers
+    (cityscapesScripts counts every entry of the class but its groups and deleted ones), so
+    that an inserted instance appended after them gets the id its position gives it."""
+    counts: dict[int, int] = {}
+    for obj in read_polygons(source)[1]:
+        label = name2label.get(obj["label"])
+        if label is not None and label.hasInstances and not obj.get("deleted"):
+            counts[label.id] = counts.get(label.id, 0) + 1
+    return counts
+
+
+def _polygon_entries(source: Path, data: Any) -> list[dict[str, Any]]:
+    """The entries of an input polygons file, each checked to be what cityscapesScripts draws:
+    an object with a string ``label`` and a ``polygon`` of [x, y] number pairs."""
+    if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
+        raise InputError(source, "polygons JSON must be an object with an 'objects' list")
+    for i, obj in enumerate(data["objects"]):
+        if not isinstance(obj, dict) or not isinstance(obj.get("label"), str):
+            raise InputError(source, f"polygons JSON entry {i} has no 'label' string")
+        poly = obj.get("polygon")
+        if not isinstance(poly, list) or not all(
+                isinstance(p, list) and len(p) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                          for v in p) for p in poly):
+            raise InputError(source, f"polygons JSON entry {i} ({obj['label']!r}) has no 'polygon' list of [x, y]")
+    return data["objects"]
+
+
+def read_polygons(source: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """An input ``gtFine_polygons.json``: the document and its checked entries
+    (:class:`InputError` naming the file and the entry otherwise)."""
+    data = read_json(source)
+    return data, _polygon_entries(source, data)

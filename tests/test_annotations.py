@@ -12,13 +12,13 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation, CsBbox3d, CsObjectType, CsPoly
 from cityscapesscripts.helpers.box3dImageTransform import CRS_S, CRS_V, Box3dImageTransform
 from cityscapesscripts.helpers.box3dImageTransform import Camera as CsCamera
-from cityscapesscripts.helpers.labels import id2label
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 from pycocotools.coco import COCO
 
 from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
 
-from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners, decode_rle, mask_box
+from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners, decode_rle
+from synthcompose.render import mask_box
 from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
 from synthcompose.camera import Camera
 from synthcompose.cli import main
@@ -357,7 +357,8 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
 
 # ------------------------------------------------------------- an object behind a real pole
 def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
-    from synthcompose.annotations import amodal_boxes, bbox3d_document, polygons_document
+    from synthcompose.annotations import bbox3d_document, polygons_document
+    from synthcompose.render import amodal_boxes
     from synthcompose.compose import Composer, SceneLayers
     from synthcompose.geometry import disparity_to_depth, occluder_depth
     from synthcompose.labels import label_id

@@ -16,6 +16,7 @@ light's depth maps, :mod:`.lit` lit.glsl's uniforms and draws, :mod:`.shading` p
 per-pixel shading of the lit pass, :mod:`.renderer` the :class:`Renderer` running them in order.
 """
 from .renderer import Renderer
-from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_camera, roi_for
+from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, amodal_boxes, crop_camera, mask_box, roi_for
 
-__all__ = ["FAR", "NEAR", "Lighting", "RenderObject", "RenderPasses", "Renderer", "Roi", "crop_camera", "roi_for"]
+__all__ = ["FAR", "NEAR", "Lighting", "RenderObject", "RenderPasses", "Renderer", "Roi", "amodal_boxes", "crop_camera",
+           "mask_box", "roi_for"]

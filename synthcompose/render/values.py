@@ -131,3 +131,23 @@ def roi_for(camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
     if x1 <= x0 or y1 <= y0:
         return None
     return Roi(x0, y0, x1 - x0, y1 - y0)
+
+
+def mask_box(mask: np.ndarray, x_offset: int = 0, y_offset: int = 0) -> list[int] | None:
+    """[x0, y0, x1, y1] of the True pixels of an (H, W) mask (+ offsets), or None if empty."""
+    cols = np.flatnonzero(mask.any(axis=0))
+    if cols.size == 0:
+        return None
+    rows = np.flatnonzero(mask.any(axis=1))
+    return [int(cols[0]) + x_offset, int(rows[0]) + y_offset, int(cols[-1]) + 1 + x_offset,
+            int(rows[-1]) + 1 + y_offset]
+
+
+def amodal_boxes(ids: np.ndarray, roi: Roi, count: int) -> list[list[int] | None]:
+    """Amodal 2D box of each object 1..count in the full frame.
+
+    ``ids`` (roi.height, roi.width) uint32: the render's ``id`` pass (object index 1..K of the
+    full silhouette at each pixel centre, before occlusion by the real scene). The ROI lies
+    inside the image, so the boxes are clipped to it. Returns a list of length ``count``.
+    """
+    return [mask_box(ids == k, roi.x0, roi.y0) for k in range(1, count + 1)]

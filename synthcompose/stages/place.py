@@ -9,8 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
-from ..annotations import polygon_instance_counts
-from ..dataset import ImageSetId, input_fingerprint
+from ..dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record

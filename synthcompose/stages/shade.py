@@ -11,7 +11,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..annotations import amodal_boxes
 from ..appearance import Appearance, appearance_rng, draw_appearance
 from ..camera import Camera
 from ..colour import srgb_to_linear
@@ -23,7 +22,7 @@ from ..lighting.camera import object_tones
 from ..manifest import Manifest
 from ..placement import GROUND_LEVEL, Placement
 from ..placement.noise import K_SIGMA
-from ..render import RenderObject, Renderer
+from ..render import RenderObject, Renderer, amodal_boxes
 from .place import Placed
 from .prepare import Prepared
 from .timing import timed

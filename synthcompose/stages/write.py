@@ -9,10 +9,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 
-from ..annotations import encode_rle, mask_box, write_frame_annotations
+from ..annotations import encode_rle, write_frame_annotations
 from ..dataset import ImageSetId
 from ..labels import label_id
 from ..manifest import Manifest
+from ..render import mask_box
 from ..record import DONE, NO_PLACEMENT, ObjectPose, ObjectRecord
 from ..writer import write_outputs, write_record
 from .place import Placed
