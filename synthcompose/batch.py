@@ -23,7 +23,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import FAULT_CRASH_ENV, BatchError, _in_process, _process_pool, _ray_engine
+from .engines import BatchError, _in_process, _process_pool, _ray_engine
 from .pipeline import STAGES, Outcome
 from .record import DONE, NO_PLACEMENT, read_record
 from .writer import discard_outputs, output_paths
@@ -132,7 +132,7 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
     if dict(record.source_fingerprint) != input_fingerprint(manifest.dataset, ident):
         return None  # an input file changed (or the record predates fingerprints)
     from .placements import saved_is_stale  # saved placements: a placement saved since means redo
-    if saved_is_stale(manifest.output, ident, record):
+    if saved_is_stale(manifest.output, ident, record.placement_file):
         return None
     if record.status == DONE:
         return Outcome(ident.key, "done", None, len(record.objects), resumed=True)

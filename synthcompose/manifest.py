@@ -18,7 +18,7 @@ from .labels import label_id
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
 from .placement.rules import orientation_for, surfaces_for
-from .render import Lighting
+from .lighting.light import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
 _POS = {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}  # metres: nothing larger is an object

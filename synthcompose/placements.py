@@ -19,7 +19,6 @@ import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,9 +30,6 @@ from .labels import label_id
 from .placement import GROUND_LEVEL, Placement, PlacementResult, _visibility, fit_ground, ground_points, pose_matrix
 
 FORMAT = "synthcompose-placement/1"
-if TYPE_CHECKING:
-    from .record import ImageSetRecord
-
 #: PreviewSession.load override: draw a random placement even where a file is saved
 IGNORE_SAVED = object()
 
@@ -107,12 +103,12 @@ def write_saved(out_root: Path, ident: ImageSetId, objects: list[tuple[str, np.n
     return path
 
 
-def saved_is_stale(out_root: Path, ident: ImageSetId, record: "ImageSetRecord") -> bool:
-    """True when the image set's saved placement (or its absence) differs from what ``record``
-    was made with: a resumed batch must then redo the set."""
+def saved_is_stale(out_root: Path, ident: ImageSetId, placement_file: dict | None) -> bool:
+    """True when the image set's saved placement (or its absence) differs from the one a record
+    was made with (its ``placement_file`` entry): a resumed batch must then redo the set."""
     path = placement_path(out_root, ident)
     now = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
-    before = (record.placement_file or {}).get("sha256")
+    before = (placement_file or {}).get("sha256")
     return now != before
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.geometry import depth_to_disparity, disparity_to_depth, make_frame
+from synthcompose.geometry import disparity_to_depth, make_frame
 from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, check_pose, frame_noise, place_object
 from synthcompose.placement.noise import SIGMA_MIN, StereoNoise, measure_sigma

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import synthcompose.fileio as fileio
-from synthcompose.batch import FAULT_CRASH_ENV
+from synthcompose.engines import FAULT_CRASH_ENV
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.errors import InputError, ManifestError, SynthComposeError

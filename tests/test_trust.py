@@ -11,11 +11,9 @@ import stat
 from pathlib import Path
 
 import cv2
-import numpy as np
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.dataset import find_image_sets
 from synthcompose.fileio import write_bytes_atomic
 from synthcompose.synthetic import make_sample
 from synthcompose.writer import output_paths
@@ -55,7 +53,7 @@ def test_clean_up_removes_only_its_own_partial_files(data, tmp_path):
     out = tmp_path / "out"
     folder = ids[0].path(out, "rgb").parent
     folder.mkdir(parents=True)
-    ours = folder / f".x_leftImg8bit.png.synthcompose-abc.part"
+    ours = folder / ".x_leftImg8bit.png.synthcompose-abc.part"
     theirs = folder / ".download.part"  # another program's
     nested = out / "nested" / "leftImg8bit" / ".y.png.synthcompose-def.part"  # a batch writing in a sub-root
     nested.parent.mkdir(parents=True)

@@ -10,7 +10,6 @@ import numpy as np
 
 from ..colour import LUM as _LUM, SRGB8_TO_LINEAR
 from ..labels import category_ids, label_ids
-from ..render import Lighting
 
 
 LUM = _LUM  # Rec. 709 luminance weights of linear RGB
@@ -42,6 +41,30 @@ SHADING_IDS = label_ids("road", "sidewalk", "building", "wall", "fence", "guard 
 _FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
 _LUT = SRGB8_TO_LINEAR
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """Light in the frame's vehicle coordinates, linear RGB, scaled so that an up-facing,
+    unshadowed surface receives ``sky_rgb + sun_rgb * sun_direction.z`` (1.0 by default)."""
+
+    sun_direction: tuple[float, float, float]
+    sun_rgb: tuple[float, float, float]
+    sky_rgb: tuple[float, float, float]
+    ground_rgb: tuple[float, float, float]
+
+    @classmethod
+    def daylight(cls, elevation_deg: float = 50.0, azimuth_deg: float = 135.0,
+                 sun_fraction: float = 0.35) -> "Lighting":
+        """Overcast-leaning daylight; ``sun_fraction`` of up-facing light comes from the sun."""
+        el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
+        d = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
+        sun = sun_fraction / max(d[2], 0.05)
+        sky = 1.0 - sun_fraction
+        return cls(d, (sun,) * 3, (sky,) * 3, (0.25 * sky,) * 3)
+
+    def to_dict(self) -> dict:
+        return {k: list(getattr(self, k)) for k in ("sun_direction", "sun_rgb", "sky_rgb", "ground_rgb")}
 
 
 def _unit(c) -> np.ndarray:

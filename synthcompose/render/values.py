@@ -12,6 +12,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..gl import GLContext
+from ..lighting.light import Lighting
 from ..models import Model
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
@@ -30,30 +31,6 @@ class Roi:
     def slices(self) -> tuple[slice, slice]:
         """(rows, columns) slices of a full-frame array."""
         return slice(self.y0, self.y0 + self.height), slice(self.x0, self.x0 + self.width)
-
-
-@dataclass(frozen=True)
-class Lighting:
-    """Light in the frame's vehicle coordinates, linear RGB, scaled so that an up-facing,
-    unshadowed surface receives ``sky_rgb + sun_rgb * sun_direction.z`` (1.0 by default)."""
-
-    sun_direction: tuple[float, float, float]
-    sun_rgb: tuple[float, float, float]
-    sky_rgb: tuple[float, float, float]
-    ground_rgb: tuple[float, float, float]
-
-    @classmethod
-    def daylight(cls, elevation_deg: float = 50.0, azimuth_deg: float = 135.0,
-                 sun_fraction: float = 0.35) -> "Lighting":
-        """Overcast-leaning daylight; ``sun_fraction`` of up-facing light comes from the sun."""
-        el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
-        d = (math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el))
-        sun = sun_fraction / max(d[2], 0.05)
-        sky = 1.0 - sun_fraction
-        return cls(d, (sun,) * 3, (sky,) * 3, (0.25 * sky,) * 3)
-
-    def to_dict(self) -> dict:
-        return {k: list(getattr(self, k)) for k in ("sun_direction", "sun_rgb", "sky_rgb", "ground_rgb")}
 
 
 @dataclass(frozen=True, eq=False)
