@@ -43,6 +43,7 @@ test: system venv ## run the test suite
 clean: ## remove generated outputs (keeps the virtualenv)
 	rm -rf out $(SAMPLE)
 
-bench: system venv ## per-stage time at 2048x1024 vs the PNG codec floor; collision-test costs
+bench: system venv ## CPU-s per image set vs the PNG codec's (the headline), per stage, per worker count; speed and collision costs
+	$(PY) benchmarks/bench_cost.py $(if $(REAL),--real $(REAL))
 	$(PY) benchmarks/bench_pipeline.py
 	$(PY) benchmarks/bench_collision.py
