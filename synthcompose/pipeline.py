@@ -5,8 +5,9 @@ A :class:`Pipeline` owns one GL context (with its renderer and composer) and run
 :mod:`synthcompose.stages` on image sets one after the other; it only orchestrates them. Each
 stage is a public call with typed values between them:
 
-    prepare(manifest, ident)                 -> Prepared   read, geometry, the photo's light and camera
+    prepare(manifest, ident)                 -> Prepared   read, geometry
     place(manifest, weights, prepared)       -> Placed     the objects' poses and instance ids
+    measure_light(manifest, prepared)        -> PhotoLight the photo's light and camera (if placed)
     shade(renderer, composer, ..., placed)   -> Shaded     lit, rendered and composed (the GL thread)
     write_done(manifest, ident, shaded)      -> Outcome    files, annotations, the record last
     write_skipped(manifest, ident, placed)   -> Outcome    no object found a place: the record alone
@@ -18,6 +19,7 @@ never raised. :meth:`Pipeline.stream` runs the stages on three image sets at onc
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable, Iterator
 
@@ -33,7 +35,8 @@ from .malloc import steady_malloc
 from .manifest import Manifest
 from .placements import read_saved
 from .render import Renderer
-from .stages import Outcome, Placed, Prepared, Shaded, place, prepare, shade, write_done, write_skipped
+from .stages import (Outcome, PhotoLight, Placed, Prepared, Shaded, measure_light, place, prepare, shade, write_done,
+                     write_skipped)
 
 log = logging.getLogger("synthcompose")
 
@@ -51,6 +54,15 @@ def _guarded(ident: ImageSetId, timings: dict[str, float], step: Callable):
     except Exception as exc:  # a bug must not take the rest of the batch down
         log.debug("internal error on %s", ident.key, exc_info=True)
         return Outcome(ident.key, "failed", f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+
+
+@dataclass(frozen=True, eq=False)
+class _Ready:
+    """An image set ready for the GL context: prepared, placed, its light measured."""
+
+    prep: Prepared
+    light: PhotoLight
+    placed: Placed
 
 
 class Pipeline:
@@ -85,22 +97,22 @@ class Pipeline:
         timings: dict[str, float] = {}
 
         def run() -> Outcome:
-            result = self._place_and_shade(prepare(self.manifest, ident, timings), timings)
-            return self._write(ident, result, timings)
+            ahead = self._ahead(ident, timings)
+            return self._write(ident, ahead if isinstance(ahead, Placed) else self._shade(ahead, timings), timings)
         return _guarded(ident, timings, run)
 
     def stream(self, idents: Iterable[ImageSetId], on_begin: Callable[[ImageSetId], None] | None = None
                ) -> Iterator[Outcome]:
         """Outcomes of ``idents``, in order, with three image sets in the works at once.
 
-        While one image set is placed, rendered and composed (on this thread: it owns the GL
-        context), the next one is prepared (read, its geometry, light and camera measured:
-        what depends on the photo alone) and the previous one written, each on a thread of its
-        own. OpenCV's codecs and NumPy's array operations release the GIL, so where a core is
+        While one image set is rendered and composed (on this thread: it owns the GL context),
+        the next one is read, its geometry made, its objects placed and, when any were, its
+        light and camera measured (no GL), and the previous one written, each on a thread of
+        its own. OpenCV's codecs and NumPy's array operations release the GIL, so where a core is
         spare the batch is bound by the slowest of the three instead of their sum. The outcome
         of an image set comes after its files are all written. ``idents`` is pulled one ahead
         (by the preparing thread: it may block, e.g. on a worker's pipe); ``on_begin`` is
-        called on this thread before an image set's placement starts.
+        called on this thread before an image set's render starts.
         """
         steady_malloc()
         source = iter(idents)
@@ -110,7 +122,7 @@ class Pipeline:
             if ident is None:
                 return None
             timings: dict[str, float] = {}
-            return ident, timings, _guarded(ident, timings, lambda: prepare(self.manifest, ident, timings))
+            return ident, timings, _guarded(ident, timings, lambda: self._ahead(ident, timings))
 
         # BLAS thread pools on top of these threads only contend: our matrices are skinny
         # ((N, 3) by (3, 3)), and OpenBLAS threads spin while waiting - with a pool per process
@@ -125,8 +137,8 @@ class Pipeline:
                 ident, timings, prepared = item
                 if on_begin is not None:
                     on_begin(ident)
-                result = prepared if isinstance(prepared, Outcome) else \
-                    _guarded(ident, timings, lambda: self._place_and_shade(prepared, timings))
+                result = prepared if isinstance(prepared, (Outcome, Placed)) else \
+                    _guarded(ident, timings, lambda: self._shade(prepared, timings))
                 if writing is not None:
                     yield writing.result()
                     writing = None
@@ -137,14 +149,20 @@ class Pipeline:
             if writing is not None:
                 yield writing.result()
 
-    def _place_and_shade(self, prep: Prepared, timings: dict[str, float]) -> "Shaded | Placed":
-        """Placement (the saved poses of the image set, if any), then, when anything was placed,
-        light, render and compose (this thread owns the GL context)."""
+    def _ahead(self, ident: ImageSetId, timings: dict[str, float]) -> "_Ready | Placed":
+        """Everything before the GL context: read, geometry, placement (the image set's saved
+        poses, if any) and, when anything was placed, the photo's light (no GL: runs on the
+        preparing thread)."""
         m = self.manifest
-        placed = place(m, self.weights, prep, timings, saved=read_saved(m.output, prep.ident))
+        prep = prepare(m, ident, timings)
+        placed = place(m, self.weights, prep, timings, saved=read_saved(m.output, ident))
         if not placed.objects:
             return placed
-        return shade(self.renderer, self.composer, m, prep, placed, timings)
+        return _Ready(prep, measure_light(m, prep, timings), placed)
+
+    def _shade(self, ready: "_Ready", timings: dict[str, float]) -> Shaded:
+        """Light, render and compose (this thread owns the GL context)."""
+        return shade(self.renderer, self.composer, self.manifest, ready.prep, ready.light, ready.placed, timings)
 
     def _write(self, ident: ImageSetId, result: "Shaded | Placed", timings: dict[str, float]) -> Outcome:
         """The write stage (thread-safe: touches no GL and no state of self)."""

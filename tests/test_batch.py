@@ -139,6 +139,12 @@ def test_no_road_anywhere_is_reported_not_crashed(dataset, tmp_path):
     record = json.loads(ids[0].path(tmp_path / "out", "record").read_text())
     assert record["status"] == "no valid placement" and record["not_placed"]
     assert not ids[0].path(tmp_path / "out", "rgb").exists()
+    # the photo's light is not measured where nothing was placed (the lighting stage never runs)
+    from synthcompose.manifest import load_manifest
+    from synthcompose.pipeline import Pipeline
+    with Pipeline(load_manifest(manifest)) as pipe:
+        outcome = pipe.process(ids[0])
+    assert outcome.status == "skipped" and "placement" in outcome.timings and "lighting" not in outcome.timings
 
 
 def _break(root: Path, ident: ImageSetId, how: str) -> str:

@@ -28,7 +28,7 @@ from ..manifest import Manifest
 from ..placement import Placement, Rejection, check_pose
 from ..placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
                           write_saved)
-from ..stages import place, prepare, shade
+from ..stages import measure_light, place, prepare, shade
 from .export import export_ply
 
 #: the passes the preview shows, in key order (1..9)
@@ -185,8 +185,8 @@ class PreviewSession:
         prep = prepare(m, self.ident, {})
         trace: list = []
         placed = place(m, p.weights, prep, {}, saved=saved, trace=trace)
-        shaded = shade(p.renderer, p.composer, m, prep, placed, {}, keep=("irpv", "ir", "alpha", "odepth", "id")) \
-            if placed.objects else None
+        shaded = shade(p.renderer, p.composer, m, prep, measure_light(m, prep, {}), placed, {},
+                       keep=("irpv", "ir", "alpha", "odepth", "id")) if placed.objects else None
         source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
         objects = [PlacedObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
                                 tuple(o.spec.allowed_surfaces)) for o in placed.objects]

@@ -1,5 +1,6 @@
-"""Stages 1-2 and the photo's light: read the image set, its geometry, and what depends on the
-photo alone (the light estimate, the camera's blur, noise and tones) -> :class:`Prepared`."""
+"""Stages 1-2: read the image set and its geometry -> :class:`Prepared`; and the photo's light
+(the light estimate, the camera's blur, noise and tones) -> :class:`PhotoLight`, measured only
+for a frame where something was placed (:func:`measure_light`)."""
 from __future__ import annotations
 
 import zlib
@@ -33,13 +34,19 @@ class Prepared:
     frame: Frame
     surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (surfaces.py)
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
+
+
+@dataclass(frozen=True, eq=False)
+class PhotoLight:
+    """The photo's light and camera, as the objects are shaded to match them."""
+
     estimate: LightEstimate | None  # lighting "estimate" mode
     match: CameraMatch | None  # lighting "camera_match"
     reference: ToneReference | None  # with camera_match: the tones of the frame's own objects
 
 
 def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepared:
-    """Everything that depends on the photo alone: read, geometry, its light and camera."""
+    """What the placement needs: the image set read, its depth and frame."""
     with timed(timings, "read"):
         image_set = read_image_set(m.dataset, ident)
         camera_json = read_input_bytes(ident.path(m.dataset, "camera"), 1 << 20)
@@ -49,12 +56,18 @@ def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepar
         rng = image_set_rng(m.seed, ident)
         # no labels (test split): road and sidewalk found from the disparity and the photo
         frame, surfaces = frame_for(image_set, depth)
-    with timed(timings, "lighting"):  # the photo's own light, and its camera's blur, noise and tones
+    return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng)
+
+
+def measure_light(m: Manifest, prep: Prepared, timings: dict[str, float]) -> PhotoLight:
+    """The photo's own light, and its camera's blur, noise and tones (what the manifest asks for)."""
+    image_set, frame = prep.image_set, prep.frame
+    with timed(timings, "lighting"):
         estimate = match = reference = None
         if m.lighting_mode == "estimate":
-            estimate = estimate_lighting(image_set.rgb, frame.label_ids, depth, cam)
+            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera)
         if m.camera_match:
-            match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, ident.key))
+            match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
                                               frame.label_ids)
-    return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng, estimate, match, reference)
+    return PhotoLight(estimate, match, reference)

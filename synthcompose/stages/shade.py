@@ -24,7 +24,7 @@ from ..placement import GROUND_LEVEL, Placement
 from ..placement.noise import K_SIGMA
 from ..render import RenderObject, Renderer, amodal_boxes
 from .place import Placed
-from .prepare import Prepared
+from .prepare import PhotoLight, Prepared
 from .timing import timed
 
 
@@ -73,13 +73,14 @@ class Shaded:
     roi: tuple | None  # (x0, y0, width, height) of the render's ROI
 
 
-def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, placed: Placed,
+def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, light: PhotoLight, placed: Placed,
           timings: dict[str, float], keep: tuple[str, ...] = ()) -> Shaded:
-    """Light, render and compose ``placed`` (at least one object) into the prepared photo.
-    ``keep``: render passes to copy out before they are released (the preview's)."""
+    """Light, render and compose ``placed`` (at least one object) into the prepared photo, in
+    the photo's ``light``. ``keep``: render passes to copy out before they are released (the
+    preview's)."""
     image_set, frame, cam = prep.image_set, prep.frame, prep.image_set.camera
     record = placed.record
-    lighting, estimate, match = m.lighting, prep.estimate, prep.match
+    lighting, estimate, match = m.lighting, light.estimate, light.match
     if estimate is not None:
         lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
         record = record.with_(lighting=estimate.to_dict() | {"renderer": lighting.to_dict()})
@@ -109,10 +110,10 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, p
         classes = [label_id(o.spec.class_name) for o in placed.objects]
         tones, camera_looks = None, [None] * len(placed.objects)
         ids = passes.read("id") if passes is not None else None  # object index per pixel
-        if passes is not None and prep.reference is not None:  # the camera's look on the objects
+        if passes is not None and light.reference is not None:  # the camera's look on the objects
             fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
             camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],
-                                        prep.reference, fallback, match)
+                                        light.reference, fallback, match)
             tones = [(t["gain"], t["saturation"]) for t in camera_looks]
         composed = composer.compose(passes, scene, classes, [o.instance_id for o in placed.objects], match, tones)
         n = len(placed.objects)
