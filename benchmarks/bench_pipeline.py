@@ -15,11 +15,8 @@ in one run measures:
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -29,18 +26,10 @@ sys.path.insert(0, str(ROOT))
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.fileio import encode_png, map_threads  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
-from synthcompose.synthetic import make_sample  # noqa: E402
 
-CAR = str(ROOT / "assets/models/openmaterial_car/vehicle_example.gltf")
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from bench_cost import dataset, run_batch  # noqa: E402
 
-
-def dataset(count: int, width: int, height: int) -> Path:
-    data = ROOT / "out" / "bench" / f"cityscapes-{width}x{height}-{count}"
-    if not (data / ".complete").exists():
-        print(f"generating {count} image sets at {width}x{height} in {data} ...", flush=True)
-        make_sample(data, count=count, width=width, height=height, seed=123)
-        (data / ".complete").touch()
-    return data
 
 
 def codec_floor(root: Path, count: int, threaded: bool) -> float:
@@ -61,37 +50,6 @@ def codec_floor(root: Path, count: int, threaded: bool) -> float:
     finally:
         cv2.setNumThreads(-1)
     return statistics.mean(times)
-
-
-def run_batch(data: Path, workers: int, limit: int | None = None) -> dict:
-    """One `synthcompose batch` in a subprocess; wall time, summary, peak RSS of its processes."""
-    with tempfile.TemporaryDirectory() as tmp:
-        manifest = Path(tmp) / "bench.json"
-        manifest.write_text(json.dumps({
-            "dataset": str(data), "output": str(Path(tmp) / "out"), "seed": 1,
-            "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]}))
-        cmd = [sys.executable, "-c", _CHILD, str(manifest), str(workers), str(limit or 0)]
-        t0 = time.perf_counter()
-        out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-        wall = time.perf_counter() - t0
-        result = json.loads(out.strip().splitlines()[-1])
-        result["wall_s"] = wall
-        return result
-
-
-# the child runs the batch and reports peak RSS of itself and of its worker processes
-_CHILD = """
-import json, resource, sys, logging
-from dataclasses import replace
-from synthcompose.batch import run_batch
-from synthcompose.manifest import load_manifest
-m = load_manifest(sys.argv[1]); workers = int(sys.argv[2]); limit = int(sys.argv[3])
-if limit: m = replace(m, limit=limit)
-s = run_batch(m, workers=workers, progress=False)
-me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-print(json.dumps({"summary": s.to_dict(), "rss_self_mb": me / 1024, "rss_children_mb": kids / 1024}))
-"""
 
 
 def main() -> int:

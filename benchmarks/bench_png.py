@@ -3,7 +3,7 @@ writer uses: time and size per file.
 
     python benchmarks/bench_png.py [--size 2048x1024]
 
-Uses the first generated image set of `bench_pipeline.py`'s data (made when missing).
+Uses the first generated image set of the benchmarks' generated data (`bench_cost.dataset`) (made when missing).
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.bench_pipeline import dataset  # noqa: E402
+from benchmarks.bench_cost import dataset  # noqa: E402
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.fileio import PNG_COMPRESSION, PNG_STRATEGY  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402

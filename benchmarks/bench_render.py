@@ -3,7 +3,7 @@ per render (CPU counts every thread of the process: llvmpipe rasterises on threa
 
     python benchmarks/bench_render.py [--renders 30] [--set 3] [--repeat 3]
 
-Uses `bench_pipeline.py`'s generated data (2048x1024, one car per set; made when missing). The
+Uses the benchmarks' generated data (`bench_cost.dataset`) (2048x1024, one car per set; made when missing). The
 image set is processed once to place its car; then Renderer.render runs --renders times with the
 same arguments, its id pass read back each time (which waits for the GL), --repeat times.
 Steadier than the end-to-end figures on a shared machine, for comparing two versions of the
@@ -21,7 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.bench_pipeline import CAR, dataset  # noqa: E402
+from benchmarks.bench_cost import CAR, dataset  # noqa: E402
 from synthcompose.dataset import find_image_sets  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 from synthcompose.pipeline import Pipeline  # noqa: E402

@@ -3,7 +3,7 @@ three image sets in the works (Pipeline.stream), wall and CPU time per image set
 
     python benchmarks/bench_stream.py [--count 8] [--repeat 3] [--size 2048x1024]
 
-Uses `bench_pipeline.py`'s generated data (made when missing); the two ways alternate, and
+Uses the benchmarks' generated data (`bench_cost.dataset`) (made when missing); the two ways alternate, and
 the best of the repeats is printed with every run's figures.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.bench_pipeline import CAR, dataset  # noqa: E402
+from benchmarks.bench_cost import CAR, dataset  # noqa: E402
 from synthcompose.dataset import find_image_sets  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 from synthcompose.pipeline import Pipeline  # noqa: E402

@@ -22,7 +22,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from pycocotools import mask as mask_util
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -30,7 +29,7 @@ sys.path.insert(0, str(REPO))
 from synthcompose import look  # noqa: E402
 from synthcompose.batch import run_batch  # noqa: E402
 from synthcompose.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
-from synthcompose.fileio import write_png  # noqa: E402
+from synthcompose.fileio import decode_rle, write_png  # noqa: E402
 from synthcompose.geometry import disparity_to_depth  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
@@ -75,7 +74,7 @@ def measure(root: Path, out: Path, truth: Path | None, views: Path | None, tag: 
         masks = []
         for obj in rec["objects"]:
             rle = obj["mask_rle"]  # the visible mask as annotated (a class without instances
-            m = mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)  # shares ids)
+            m = decode_rle(rle)  # shares ids)
             masks.append((obj, m))
             objects |= m
         ground = np.isin((ref.label_ids if ref is not None else src.label_ids), GROUND)

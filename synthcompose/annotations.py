@@ -40,7 +40,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from cityscapesscripts.helpers.labels import name2label
-from pycocotools import mask as mask_utils
 from scipy.spatial.transform import Rotation
 
 from .camera import Camera
@@ -62,18 +61,6 @@ COCO_NAME = "coco_instances.json"
 def xywh(box: Box) -> list[int]:
     """[x0, y0, x1, y1] -> [x0, y0, w, h]."""
     return [box[0], box[1], box[2] - box[0], box[3] - box[1]]
-
-
-# ------------------------------------------------------------------------------------ RLE
-def encode_rle(mask: np.ndarray) -> dict[str, Any]:
-    """COCO compressed RLE of an (H, W) mask: {"size": [H, W], "counts": str}."""
-    rle = mask_utils.encode(np.asfortranarray(mask.astype(np.uint8)))
-    return {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
-
-
-def decode_rle(rle: dict[str, Any]) -> np.ndarray:
-    """Inverse of :func:`encode_rle`: (H, W) bool."""
-    return mask_utils.decode({"size": list(rle["size"]), "counts": rle["counts"].encode("ascii")}).astype(bool)
 
 
 # ------------------------------------------------------------------------------- polygons

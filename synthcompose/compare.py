@@ -9,10 +9,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from pycocotools import mask as mask_util
 
 from .batch import select
-from .fileio import read_png, write_png
+from .fileio import decode_rle, read_png, write_png
 from .look import side_by_side
 from .pipeline import Pipeline
 from .record import ImageSetRecord, read_record
@@ -119,7 +118,7 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
             rle = obj.mask_rle
             if not rle:
                 continue
-            mask = mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)
+            mask = decode_rle(rle)
             if not mask.any():
                 continue
             path = out_dir / f"{name}_object{obj.index}_side_by_side.png"

@@ -17,6 +17,7 @@ from typing import Any, Callable, Iterable, Literal, TypeVar
 
 import cv2
 import numpy as np
+from pycocotools import mask as coco_mask
 
 from .errors import InputError, OutputError
 
@@ -210,3 +211,15 @@ def dumps_json(obj: Any) -> bytes:
 
 def write_json(path: str | Path, obj: Any) -> None:
     write_bytes_atomic(path, dumps_json(obj))
+
+
+# ------------------------------------------------------------------- COCO RLE (masks in JSON)
+def encode_rle(mask: np.ndarray) -> dict[str, Any]:
+    """COCO compressed RLE of an (H, W) mask (pycocotools): {"size": [H, W], "counts": str}."""
+    rle = coco_mask.encode(np.asfortranarray(mask.astype(np.uint8)))
+    return {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
+
+
+def decode_rle(rle: dict[str, Any]) -> np.ndarray:
+    """Inverse of :func:`encode_rle`: (H, W) bool."""
+    return coco_mask.decode({"size": list(rle["size"]), "counts": rle["counts"].encode("ascii")}).astype(bool)

@@ -17,7 +17,8 @@ from pycocotools.coco import COCO
 
 from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
 
-from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners, decode_rle
+from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners
+from synthcompose.fileio import decode_rle, encode_rle
 from synthcompose.render import mask_box
 from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
 from synthcompose.camera import Camera
@@ -392,7 +393,6 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
 
     # the record entries the pipeline makes, then the annotation documents
     # the object's record as the write stage makes it, then the annotation documents
-    from synthcompose.annotations import encode_rle
     from synthcompose.record import ObjectPose, ObjectRecord
     obj = ObjectRecord(
         index=1, name="box", model="builtin:box", class_name="car", allowed_surfaces=("road",),

@@ -9,13 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pycocotools import mask as mask_util
 
 from synthcompose import look
 from synthcompose.appearance import CLOTHES, PAINTS, appearance_rng, draw_appearance, palette_rank, recolourable
 from synthcompose.cli import main
 from synthcompose.colour import linear_to_srgb
 from synthcompose.dataset import find_image_sets, read_image_set
+from synthcompose.fileio import decode_rle
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting.camera import ToneReference, object_tones
 from synthcompose.models import load_model
@@ -118,7 +118,7 @@ def _objects(root: Path, out: Path):
         masks = []
         for obj in rec["objects"]:
             rle = obj["mask_rle"]
-            masks.append((obj, mask_util.decode({"size": rle["size"], "counts": rle["counts"].encode()}).astype(bool)))
+            masks.append((obj, decode_rle(rle)))
         yield src, res, rec, masks
 
 

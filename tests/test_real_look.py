@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pycocotools import mask as mask_util
 
 from synthcompose import look
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets, read_image_set
+from synthcompose.fileio import decode_rle
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import estimate_lighting
 from synthcompose.surfaces import frame_for
@@ -60,8 +60,7 @@ def test_inserted_cars_take_the_frames_tone_and_stand_on_its_ground(tmp_path):
         s = np.quantile([t.saturation for t in real.values()], [0.1, 0.9])
         depth = disparity_to_depth(src.disparity, src.camera)
         out_depth = look.decode_depth(res.disparity, src.camera.fx * src.camera.baseline)
-        masks = [mask_util.decode({"size": o["mask_rle"]["size"], "counts": o["mask_rle"]["counts"].encode()})
-                 .astype(bool) for o in rec["objects"]]
+        masks = [decode_rle(o["mask_rle"]) for o in rec["objects"]]
         objects = np.any(masks, axis=0)
         for m in masks:
             if m.sum() >= look.MIN_REAL_PIXELS and len(real) >= 3:

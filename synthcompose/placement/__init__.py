@@ -7,7 +7,7 @@ planes over a metric neighbourhood), ``road`` (kerb lines and the road's directi
 :func:`check_pose` for a pose given outright) and ``search`` (drawing candidates:
 :func:`place_object`).
 """
-from .boxes import (FOOTPRINT_SAMPLES, _visibility, box_corners, footprint_corners, footprint_grid, footprints_overlap,
+from .boxes import (FOOTPRINT_SAMPLES, _visibility, footprint_corners, footprint_grid, footprints_overlap,
                     penetration, pose_matrix, prefilter, rays_hit_box, strict_inside)
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
@@ -15,7 +15,7 @@ from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_
 from .road import RoadLine, fit_road_line, road_line, surface_edges
 from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, INLIER_BAND, KERB_CLEARANCE, MAX_PENETRATION, ORIENTATION,
                     ORIENTATIONS, POSE_GROUND_SEARCH, RULE_OF, Placement, PlacementResult, PlacementRules, Rejection,
-                    label_mask)
+                    box_corners, label_mask)
 from .search import place_object
 
 __all__ = [

@@ -8,14 +8,7 @@ import cv2
 import numpy as np
 
 from ..geometry import Frame
-from .rules import OCCLUSION_TOL_ABS, OCCLUSION_TOL_REL, Placement, PlacementRules
-
-
-def box_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
-    """(8, 3) vehicle-frame corners of an object's box, its sides pushed out by ``grow``."""
-    l, w, h = extents[0] / 2 + grow, extents[1] / 2 + grow, extents[2] + grow
-    local = np.array([[sx * l, sy * w, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, h)])
-    return local @ m[:3, :3].T + m[:3, 3]
+from .rules import OCCLUSION_TOL_ABS, OCCLUSION_TOL_REL, Placement, PlacementRules, box_corners
 
 
 def pose_matrix(position: np.ndarray, normal: np.ndarray, yaw: float) -> np.ndarray:

@@ -46,6 +46,13 @@ MAX_PENETRATION = 0.05
 POSE_GROUND_SEARCH = 2.0
 
 
+def box_corners(m: np.ndarray, extents, grow: float = 0.0) -> np.ndarray:
+    """(8, 3) vehicle-frame corners of an object's box, its sides pushed out by ``grow``."""
+    l, w, h = extents[0] / 2 + grow, extents[1] / 2 + grow, extents[2] + grow
+    local = np.array([[sx * l, sy * w, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, h)])
+    return local @ m[:3, :3].T + m[:3, 3]
+
+
 @dataclass(frozen=True)
 class PlacementRules:
     distance: tuple[float, float] = (6.0, 45.0)  # ground distance from the camera, metres
@@ -94,8 +101,6 @@ class Placement:
 
     def box_corners(self, grow: float = 0.0) -> np.ndarray:
         """(8, 3) corners of the object's box in V (grown by ``grow`` metres, not below z = 0)."""
-        from .boxes import box_corners
-
         return box_corners(self.matrix, self.extents, grow)
 
 

@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 
-from ..annotations import encode_rle, write_frame_annotations
+from ..annotations import write_frame_annotations
+from ..fileio import encode_rle
 from ..dataset import ImageSetId
 from ..labels import label_id
 from ..manifest import Manifest
