@@ -18,9 +18,12 @@ the same way: the layout did not change, the key was added).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
+
+import numpy as np
 
 from .errors import InputError
 
@@ -54,9 +57,8 @@ class ObjectPose:
 
     @classmethod
     def of(cls, vehicle_from_object, optical_from_vehicle, position, yaw_rad: float) -> "ObjectPose":
-        import math
-
-        import numpy as np
+        """The pose of a placement (V <- object, its contact point, its yaw in radians) under a
+        camera (``optical_from_vehicle``), rounded as the record keeps it."""
         opt = optical_from_vehicle @ vehicle_from_object
         return cls(tuple(map(tuple, _matrix(vehicle_from_object))), tuple(_rounded(position, 4)),
                    round(math.degrees(yaw_rad), 3), tuple(map(tuple, _matrix(opt))),

@@ -22,6 +22,7 @@ from ..lighting.camera import object_tones
 from ..manifest import Manifest
 from ..placement import GROUND_LEVEL, Placement
 from ..placement.noise import K_SIGMA
+from ..record import ImageSetRecord
 from ..render import RenderObject, Renderer, amodal_boxes
 from .place import Placed
 from .prepare import PhotoLight, Prepared
@@ -63,7 +64,7 @@ class Shaded:
 
     placed: Placed
     looks: tuple[ObjectLook, ...]
-    record: "object"  # ImageSetRecord: the placement's, with the lighting and camera match
+    record: ImageSetRecord  # the placement's, with the lighting and camera match
     composed: Composed
     amodal: list  # amodal 2D box of each object (annotations)
     rendered: np.ndarray  # rendered pixels of each object index (0: none)

@@ -34,7 +34,7 @@ class Outcome:
     resumed: bool = False  # complete from an earlier run with the same configuration
 
 
-def object_records(s: Shaded, ident: ImageSetId) -> tuple[ObjectRecord, ...]:
+def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     """The record of each shaded object (with its visible mask as COCO RLE)."""
     visible = s.composed.visible
     opt_from_v = s.camera.optical_from_vehicle
@@ -74,7 +74,7 @@ def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, flo
     composed = s.composed
     with timed(timings, "write"):
         write_outputs(m.output, ident, composed, s.camera_json)
-        objects = object_records(s, ident)
+        objects = object_records(s)
         h, w = composed.visible.shape
         record = s.record.with_(objects=objects, status=DONE, image={
             "file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h})
