@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from functools import cached_property
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -104,6 +104,13 @@ class Camera:
                           "x": self.x, "y": self.y, "yaw": self.yaw, "z": self.z},
             "intrinsic": {"fx": self.fx, "fy": self.fy, "u0": self.u0, "v0": self.v0},
         }
+
+    def right_camera(self) -> "Camera":
+        """The rectified right camera of the stereo pair: the same intrinsics and orientation,
+        ``baseline`` metres along the optical x axis. A point at depth z seen at column u in the
+        left image is at column u - fx * baseline / z in the right one (its disparity)."""
+        x, y, z = self.position + self.vehicle_from_optical[:3, :3] @ np.array([self.baseline, 0.0, 0.0])
+        return replace(self, x=float(x), y=float(y), z=float(z))
 
     # -------------------------------------------------------------- transforms
     @property

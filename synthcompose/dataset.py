@@ -3,6 +3,7 @@
 Layout (cityscapesScripts ``csHelpers``: file names are ``city_seq_frame_type.ext``)::
 
     leftImg8bit/<split>/<city>/<city>_<seq>_<frame>_leftImg8bit.png     8-bit RGB
+    rightImg8bit/<split>/<city>/<city>_<seq>_<frame>_rightImg8bit.png   8-bit RGB (optional)
     gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_labelIds.png      8-bit label ids
     gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_instanceIds.png   16-bit instance ids
     gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_color.png         RGBA colours
@@ -54,6 +55,7 @@ class ImageSetId:
 #: file type -> (top folder, file-name suffix)
 _KINDS = {
     "rgb": ("leftImg8bit", "leftImg8bit.png"),
+    "right": ("rightImg8bit", "rightImg8bit.png"),
     "labelIds": ("gtFine", "gtFine_labelIds.png"),
     "instanceIds": ("gtFine", "gtFine_instanceIds.png"),
     "color": ("gtFine", "gtFine_color.png"),
@@ -129,6 +131,7 @@ class ImageSet:
     disparity: np.ndarray
     camera: Camera
     labelled: bool = True  # False: no gtFine files, or labels that mark nothing (test split)
+    right_rgb: np.ndarray | None = None  # (H, W, 3) uint8 sRGB, the right view, when read and there
 
     @property
     def size(self) -> tuple[int, int]:
@@ -142,7 +145,7 @@ MAX_DISPARITY_WIDTH_SHARE = 0.5
 
 
 #: the input files whose change makes a completed image set stale
-INPUT_KINDS = ("rgb", "labelIds", "instanceIds", "disparity", "camera")
+INPUT_KINDS = ("rgb", "right", "labelIds", "instanceIds", "disparity", "camera")
 
 
 def input_fingerprint(root: Path, ident: ImageSetId) -> dict[str, list[int] | None]:
@@ -170,19 +173,25 @@ def check_disparity(path: Path, disparity: np.ndarray, width: int) -> None:
                                f"(up to {d.max():.0f} px): not a Cityscapes disparity map")
 
 
-def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
-    """Read and check all files of one image set; raises :class:`InputError` naming the file."""
+def read_image_set(root: Path, ident: ImageSetId, right: bool = False) -> ImageSet:
+    """Read and check all files of one image set; raises :class:`InputError` naming the file.
+    ``right``: read the right view too, when the set has one (``ImageSet.right_rgb``)."""
     rgb_path = ident.path(root, "rgb")
     label_path = ident.path(root, "labelIds")
     inst_path = ident.path(root, "instanceIds")
     disp_path = ident.path(root, "disparity")
+    right_path = ident.path(root, "right")
+    right = right and right_path.exists()
     labelled = label_path.exists() or inst_path.exists()
     # both gtFine files must be there; a set without any is unlabelled. Decoded side by side.
     files = [(rgb_path, "rgb8")] + ([(label_path, "gray8"), (inst_path, "gray16")] if labelled else [])
+    files += [(right_path, "rgb8")] if right else []
     rgb, *gt, disparity = map_threads(lambda f: read_png(*f), files + [(disp_path, "gray16")])
+    right_rgb = gt.pop() if right else None
     h, w = rgb.shape[:2]
     labels, instances = gt if labelled else (np.zeros((h, w), np.uint8), np.zeros((h, w), np.uint16))
-    for path, img in ((label_path, labels), (inst_path, instances), (disp_path, disparity)):
+    checked = [(label_path, labels), (inst_path, instances), (disp_path, disparity)]
+    for path, img in checked + ([(right_path, right_rgb)] if right else []):
         if img.shape[:2] != (h, w):
             raise InputError(path, f"image is {img.shape[1]}x{img.shape[0]} but {rgb_path.name} is {w}x{h}")
     camera = Camera.read(ident.path(root, "camera"), w, h)
@@ -194,7 +203,7 @@ def read_image_set(root: Path, ident: ImageSetId) -> ImageSet:
         bad = np.arange(256)[~KNOWN_IDS][unknown]
         raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")
     check_disparity(disp_path, disparity, w)
-    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled)
+    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled, right_rgb)
 
 
 # ------------------------------------------------------------ input polygons (gtFine)

@@ -97,6 +97,9 @@ SCHEMA: dict[str, Any] = {
                 # render.py: light shaded per sample of 4x MSAA, or per pixel and filled into the
                 # samples (3x cheaper on llvmpipe); auto: per pixel on llvmpipe, per sample on a GPU
                 "shading": {"enum": ["auto", "pixel", "sample"]},
+                # the right photo of the stereo pair (rightImg8bit) gets the objects too, when the
+                # input has one (stages/right.py); false: the left view alone, as before
+                "right_view": {"type": "boolean"},
             },
         },
     },
@@ -139,6 +142,7 @@ class Manifest:
     camera_match: bool = True  # give the inserted objects the photo's blur and noise
     # --- end lighting modes
     shading: str = "auto"  # render.py: "pixel", "sample", or "auto" (by the GL device)
+    right_view: bool = True  # augment the right photo of the pair too, where the input has one
     _hash: list = field(default_factory=list, init=False, compare=False, repr=False)  # config_hash, once computed
 
     @property
@@ -233,7 +237,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         rules=rules, lighting=lighting, raw=data,
         lighting_mode=lighting_mode, match_exposure=bool(lt.get("match_exposure", False)),  # lighting modes
         camera_match=bool(lt.get("camera_match", True)),
-        shading=data.get("render", {}).get("shading", "auto"))
+        shading=data.get("render", {}).get("shading", "auto"),
+        right_view=bool(data.get("render", {}).get("right_view", True)))
 
 
 def load_manifest(path: str | Path) -> Manifest:

@@ -164,6 +164,7 @@ class ImageSetRecord:
     image: Mapping[str, Any] | None = None  # file_name (relative to the output root), width, height
     status: str | None = None
     record_version: int = field(default=RECORD_VERSION)
+    views: tuple[str, ...] = ("left",)  # the photos the objects were composed into: "left", and "right"
 
     def with_(self, **changes) -> "ImageSetRecord":
         return replace(self, **changes)
@@ -179,6 +180,8 @@ class ImageSetRecord:
             value = getattr(self, key)
             if value is not None:
                 d[key] = dict(value)
+        if self.status == DONE:
+            d["views"] = list(self.views)
         d["status"] = self.status
         return d
 
@@ -193,7 +196,8 @@ class ImageSetRecord:
                        dict(d.get("stereo_noise") or {}), dict(d.get("lighting") or {}),
                        tuple(ObjectRecord.from_json(o) for o in d.get("objects", [])),
                        tuple(d.get("not_placed", [])), d.get("placement_file"), d.get("camera_match"), d.get("image"),
-                       d.get("status"), int(d.get("record_version", 0)))
+                       d.get("status"), int(d.get("record_version", 0)),
+                       tuple(str(v) for v in d.get("views", ["left"])))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
             raise RecordError(path or Path("<record>"),
                               f"is not a synthcompose record ({type(exc).__name__}: {exc})") from None

@@ -9,14 +9,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .compose import Composed
 from .dataset import ImageSetId
 from .fileio import map_threads, write_bytes_atomic, write_json, write_png
 from .labels import colorize
 
 
-def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_json: bytes) -> list[Path]:
-    """Write the six Cityscapes files of the augmented set; returns their paths."""
+def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_json: bytes,
+                  right_rgb: np.ndarray | None = None) -> list[Path]:
+    """Write the six Cityscapes files of the augmented set, and its right view when given;
+    returns their paths."""
     files = {
         "rgb": lambda: composed.rgb,
         "labelIds": lambda: composed.label_ids,
@@ -24,6 +28,8 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
         "color": lambda: colorize(composed.label_ids),
         "disparity": lambda: composed.disparity,
     }
+    if right_rgb is not None:
+        files["right"] = lambda: right_rgb
 
     def write(kind: str) -> Path:
         path = ident.path(out_root, kind)
@@ -38,7 +44,7 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
 
 
 #: the kinds of file written per image set (dataset.ImageSetId.path), the record last
-WRITTEN_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "polygons", "record")
+WRITTEN_KINDS = ("rgb", "right", "labelIds", "instanceIds", "color", "disparity", "camera", "polygons", "record")
 
 
 def output_paths(out_root: Path, ident: ImageSetId) -> list[Path]:

@@ -179,7 +179,7 @@ class PreviewSession:
         written). ``override``: None (the image set's saved placement, if any), IGNORE_SAVED (a
         random placement), or a SavedPlacement (these poses)."""
         p = self.pipeline
-        m = replace(self.base, seed=self.base.seed + self.seed_offset)
+        m = replace(self.base, seed=self.base.seed + self.seed_offset, right_view=False)  # the left view is shown
         saved = read_saved(m.output, self.ident) if override is None else \
             (None if override is IGNORE_SAVED else override)
         prep = prepare(m, self.ident, {})

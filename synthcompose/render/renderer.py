@@ -64,14 +64,17 @@ class Renderer:
 
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
                photo: np.ndarray | None = None, roi: Roi | None = None,
-               sun_mask: np.ndarray | None = None) -> RenderPasses | None:
+               sun_mask: np.ndarray | None = None, eye: tuple[Camera, np.ndarray] | None = None) -> RenderPasses | None:
         """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
 
         ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
         their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
         passes as ``photo`` for the compose stage. ``sun_mask`` (H, W) float, full frame: the sun
         reaching the real ground at each pixel (0 in its real shadows, lighting.py); the planes
-        use it instead of their object's ``sun_visibility``.
+        use it instead of their object's ``sun_visibility``. ``eye`` (camera, its full photo):
+        the view the view-dependent light (highlights, reflections of the photo) is worked out
+        for, when not ``camera``'s: the right view of a stereo pair shows the left view's
+        shading, so that a matcher finds the surface's depth in both (stages.right).
         """
         roi = roi or roi_for(camera, objects, lighting)
         if roi is None:
@@ -83,7 +86,7 @@ class Renderer:
         if photo is not None:
             rows, cols = roi.slices
             tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
-            tex["env"] = environment(gl, photo)  # reflections (lit.glsl: environment)
+            tex["env"] = environment(gl, photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
         if sun_mask is not None:
             rows, cols = roi.slices
             tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
@@ -91,7 +94,8 @@ class Renderer:
         proj = cam.gl_projection(NEAR, FAR)
         light = light_matrices(objects, lighting)  # half, sun, sky, under
         self.shadows.draw(objects, light[1:], self._gpu_model)
-        self._lit.uniforms = frame_uniforms(camera, view, proj, lighting, light, tex.get("env"), sun_mask is not None)
+        self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
+                                            tex.get("env"), sun_mask is not None)
         bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), tex.get("env"), tex.get("sun_mask"))
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)

@@ -121,7 +121,8 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
     noise = frame_noise(frame)
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
-        source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")},
+        source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
+        | ({"right": str(ident.path(m.dataset, "right"))} if prep.image_set.right_rgb is not None else {}),
         source_fingerprint=input_fingerprint(m.dataset, ident),  # resume: a changed input is redone
         labels="gtFine" if image_set.labelled else prep.surfaces.to_dict(),
         stereo_noise=noise.to_dict(),

@@ -48,7 +48,7 @@ class PhotoLight:
 def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepared:
     """What the placement needs: the image set read, its depth and frame."""
     with timed(timings, "read"):
-        image_set = read_image_set(m.dataset, ident)
+        image_set = read_image_set(m.dataset, ident, right=m.right_view)
         camera_json = read_input_bytes(ident.path(m.dataset, "camera"), 1 << 20)
     with timed(timings, "geometry"):
         cam = image_set.camera

@@ -26,6 +26,7 @@ from ..record import ImageSetRecord
 from ..render import RenderObject, Renderer, amodal_boxes
 from .place import Placed
 from .prepare import PhotoLight, Prepared
+from .right import shade_right
 from .timing import timed
 
 
@@ -72,12 +73,14 @@ class Shaded:
     camera_json: bytes
     passes: dict  # name -> copy of the render pass (ROI-sized), for the passes asked for
     roi: tuple | None  # (x0, y0, width, height) of the render's ROI
+    right_rgb: np.ndarray | None = None  # (H, W, 3) uint8: the right photo with the objects (stages.right)
 
 
 def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, light: PhotoLight, placed: Placed,
           timings: dict[str, float], keep: tuple[str, ...] = ()) -> Shaded:
     """Light, render and compose ``placed`` (at least one object) into the prepared photo, in
-    the photo's ``light``. ``keep``: render passes to copy out before they are released (the
+    the photo's ``light``; and into the right photo of the pair, when it was read (the
+    manifest's ``render.right_view``, :func:`stages.prepare`). ``keep``: render passes to copy out before they are released (the
     preview's)."""
     image_set, frame, cam = prep.image_set, prep.frame, prep.image_set.camera
     record = placed.record
@@ -100,8 +103,9 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
                 if spec.appearance == "varied" else Appearance()
             objects.append(RenderObject(obj.model, pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour))
             looks.append((albedo, sun, look))
+        sun_mask = None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids)
         passes = renderer.render(cam, objects, lighting, photo=image_set.rgb,  # real shadows on the objects
-                                 sun_mask=None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids))
+                                 sun_mask=sun_mask)
     with timed(timings, "compose"):
         noise = placed.noise
         scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
@@ -116,7 +120,8 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
             camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],
                                         light.reference, fallback, match)
             tones = [(t["gain"], t["saturation"]) for t in camera_looks]
-        composed = composer.compose(passes, scene, classes, [o.instance_id for o in placed.objects], match, tones)
+        instances = [o.instance_id for o in placed.objects]
+        composed = composer.compose(passes, scene, classes, instances, match, tones)
         n = len(placed.objects)
         rendered = np.zeros(n + 1, np.int64)
         amodal = [None] * n  # amodal 2D box of each object
@@ -127,5 +132,10 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
             kept = {k: passes.read(k).copy() for k in keep if k in passes.textures}
             roi = (passes.roi.x0, passes.roi.y0, passes.roi.width, passes.roi.height)
             renderer.release(passes)
+    right_rgb = None
+    if image_set.right_rgb is not None:
+        with timed(timings, "right"):
+            right_rgb = shade_right(renderer, composer, prep, objects, lighting, sun_mask, scene, classes, instances,
+                                    match, tones)
     return Shaded(placed, tuple(ObjectLook(a, s, lk, c) for (a, s, lk), c in zip(looks, camera_looks)), record,
-                  composed, amodal, rendered, cam, prep.camera_json, kept, roi)
+                  composed, amodal, rendered, cam, prep.camera_json, kept, roi, right_rgb)

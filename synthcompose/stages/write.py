@@ -73,10 +73,11 @@ def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, flo
     """The image set's files, annotations and record (last)."""
     composed = s.composed
     with timed(timings, "write"):
-        write_outputs(m.output, ident, composed, s.camera_json)
+        write_outputs(m.output, ident, composed, s.camera_json, s.right_rgb)
         objects = object_records(s)
         h, w = composed.visible.shape
-        record = s.record.with_(objects=objects, status=DONE, image={
+        record = s.record.with_(objects=objects, status=DONE, views=("left", "right") if s.right_rgb is not None
+                                else ("left",), image={
             "file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h})
         # gtFine polygons and gtBbox3d files; before the record, which is written last
         write_frame_annotations(m.output, m.dataset, ident, objects, [o.placement.matrix for o in s.placed.objects],

@@ -3,6 +3,8 @@ encodes the disparity.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 
@@ -22,7 +24,8 @@ _ROAD, _SIDEWALK, _SKY, _EGO = (label_id(n) for n in ("road", "sidewalk", "sky",
 _POLE = label_id("pole")
 
 
-def render_scene(scene: StreetScene, stereo: str = "realistic", photo: str = "realistic") -> dict[str, np.ndarray]:
+def render_scene(scene: StreetScene, stereo: str = "realistic", photo: str = "realistic",
+                 right: bool = False) -> dict[str, np.ndarray]:
     """Ray-cast a scene. Returns (H, W from ``scene.camera``):
 
     rgb          : (H, W, 3) uint8 sRGB, shaded with image noise. ``photo="realistic"``
@@ -37,10 +40,20 @@ def render_scene(scene: StreetScene, stereo: str = "realistic", photo: str = "re
                    semi-global matching measures it (noise, fattening, holes; see
                    :mod:`.stereo`); ``"exact"``: the encoding of ``depth``, 0 on sky, ego
                    and ~2 % random holes
+    right_rgb    : with ``right``: (H, W, 3) uint8, the scene seen by the right camera of the
+                   pair (``Camera.right_camera``), shaded and recorded as the left photo (the
+                   same clouds and camera look; its own image noise)
     The labels and depth are the same bytes in every mode; the photo does not depend on
-    ``stereo``, the exact disparity not on ``photo``.
+    ``stereo``, the exact disparity not on ``photo``, the left arrays not on ``right``.
     """
-    return _render(scene, stereo=stereo, photo=photo)
+    arrays = _render(scene, stereo=stereo, photo=photo)
+    if right:
+        view = replace(scene, camera=scene.camera.right_camera())
+        buf, ego = _cast(view)
+        # the same draws for the clouds as the left photo, then noise of its own sensor
+        arrays["right_rgb"] = _photo(view, buf, ego, np.random.default_rng(scene.noise_seed), None, photo,
+                                     np.random.default_rng([scene.noise_seed, 1]))
+    return arrays
 
 
 def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = "realistic",
@@ -51,19 +64,7 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = 
         raise ValueError(f"photo must be one of {PHOTO_MODES}, not {photo!r}")
     cam = scene.camera
     h, w = cam.height, cam.width
-    origin, dirs = street_rays(scene)
-    v_from_t = None if scene.street_is_vehicle_frame else scene.vehicle_from_street
-    buf = Buffers(origin=origin, d=dirs,
-                   depth=np.full((h, w), np.inf, np.float32), pid=np.full((h, w), PID_SKY, np.int16),
-                   face=np.zeros((h, w), np.int8))
-    cast_ground(scene, buf)
-    for i, box in enumerate(scene.boxes):
-        cast_box(box, PID_FIRST_OBJECT + i, buf, cam, v_from_t)
-    for j, pole in enumerate(scene.poles):
-        cast_pole(pole, PID_FIRST_OBJECT + len(scene.boxes) + j, buf, cam, v_from_t)
-    ego = ego_mask(h, w, scene.ego_rows)
-    buf.depth[ego] = np.inf
-    buf.pid[ego] = PID_EGO
+    buf, ego = _cast(scene)
 
     # labels and instances through per-primitive lookup tables
     n_obj = len(scene.boxes) + len(scene.poles)
@@ -82,15 +83,7 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = 
     instance_ids = lut_inst[buf.pid]
 
     rng = np.random.default_rng(scene.noise_seed)
-    rgb = shade(scene, buf, ego, rng, sunlit)
-    if photo == "realistic":
-        rgb = camera_look(rgb, scene.noise_seed)
-    sigma = 0.45 * w / 2048 + 0.15
-    rgb = cv2.GaussianBlur(rgb, (0, 0), sigma)
-    gain = np.float32(NOISE_SHARE if photo == "realistic" else 1.0)
-    rgb += rng.standard_normal((h, w, 3), dtype=np.float32) * (np.float32(1.6) * gain)
-    rgb += rng.standard_normal((h, w, 1), dtype=np.float32) * (np.float32(1.4) * gain)
-    rgb8 = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    rgb8 = _photo(scene, buf, ego, rng, sunlit, photo)
 
     depth = buf.depth
     if stereo == "exact":
@@ -100,6 +93,43 @@ def _render(scene: StreetScene, sunlit: np.ndarray | None = None, stereo: str = 
         disparity = sgm_disparity(depth, rgb8, label_ids, cam, scene.noise_seed)
     return {"rgb": rgb8, "label_ids": label_ids, "instance_ids": instance_ids,
             "depth": depth, "disparity": disparity}
+
+
+def _cast(scene: StreetScene) -> tuple[Buffers, np.ndarray]:
+    """The z-buffer of one ray per pixel centre of ``scene.camera``, and the bonnet's mask."""
+    cam = scene.camera
+    h, w = cam.height, cam.width
+    origin, dirs = street_rays(scene)
+    v_from_t = None if scene.street_is_vehicle_frame else scene.vehicle_from_street
+    buf = Buffers(origin=origin, d=dirs,
+                  depth=np.full((h, w), np.inf, np.float32), pid=np.full((h, w), PID_SKY, np.int16),
+                  face=np.zeros((h, w), np.int8))
+    cast_ground(scene, buf)
+    for i, box in enumerate(scene.boxes):
+        cast_box(box, PID_FIRST_OBJECT + i, buf, cam, v_from_t)
+    for j, pole in enumerate(scene.poles):
+        cast_pole(pole, PID_FIRST_OBJECT + len(scene.boxes) + j, buf, cam, v_from_t)
+    ego = ego_mask(h, w, scene.ego_rows)
+    buf.depth[ego] = np.inf
+    buf.pid[ego] = PID_EGO
+    return buf, ego
+
+
+def _photo(scene: StreetScene, buf: Buffers, ego: np.ndarray, rng: np.random.Generator, sunlit: np.ndarray | None,
+           photo: str, noise_rng: np.random.Generator | None = None) -> np.ndarray:
+    """(H, W, 3) uint8: the z-buffer shaded (``rng``'s draws: the clouds), recorded as the
+    camera would (``photo``), blurred, with image noise drawn from ``noise_rng`` (default ``rng``)."""
+    h, w = buf.depth.shape
+    rgb = shade(scene, buf, ego, rng, sunlit)
+    if photo == "realistic":
+        rgb = camera_look(rgb, scene.noise_seed)
+    sigma = 0.45 * w / 2048 + 0.15
+    rgb = cv2.GaussianBlur(rgb, (0, 0), sigma)
+    gain = np.float32(NOISE_SHARE if photo == "realistic" else 1.0)
+    noise_rng = rng if noise_rng is None else noise_rng
+    rgb += noise_rng.standard_normal((h, w, 3), dtype=np.float32) * (np.float32(1.6) * gain)
+    rgb += noise_rng.standard_normal((h, w, 1), dtype=np.float32) * (np.float32(1.4) * gain)
+    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
 def render_scene_sunlit(scene: StreetScene, stereo: str = "realistic",

@@ -17,12 +17,15 @@ def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: d
     """Write the six Cityscapes files of one rendered frame under ``root``.
 
     leftImg8bit (RGB), gtFine_labelIds (8-bit), gtFine_instanceIds (16-bit), gtFine_color
-    (RGBA), disparity (16-bit) and camera JSON (``scene.camera.to_dict()``).
+    (RGBA), disparity (16-bit) and camera JSON (``scene.camera.to_dict()``); and rightImg8bit
+    when ``arrays`` has ``right_rgb``.
     """
     cam = scene.camera
     shape = (cam.height, cam.width)
     expected = {"rgb": (np.uint8, shape + (3,)), "label_ids": (np.uint8, shape),
                 "instance_ids": (np.uint16, shape), "disparity": (np.uint16, shape)}
+    if "right_rgb" in arrays:
+        expected["right_rgb"] = (np.uint8, shape + (3,))
     for key, (dtype, shp) in expected.items():
         arr = arrays[key]
         if arr.dtype != dtype or arr.shape != shp:
@@ -31,6 +34,8 @@ def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: d
         raise ValueError("label_ids holds ids that Cityscapes does not define")
     root = Path(root)
     write_png(ident.path(root, "rgb"), arrays["rgb"])
+    if "right_rgb" in arrays:
+        write_png(ident.path(root, "right"), arrays["right_rgb"])
     write_png(ident.path(root, "labelIds"), arrays["label_ids"])
     write_png(ident.path(root, "instanceIds"), arrays["instance_ids"])
     write_png(ident.path(root, "color"), colorize(arrays["label_ids"]))
@@ -40,12 +45,13 @@ def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: d
 
 def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int = 1024, seed: int = 0,
                 split: str = "train", city: str = "synthtown", stereo: str = "realistic",
-                photo: str = "realistic") -> list[ImageSetId]:
+                photo: str = "realistic", right: bool = False) -> list[ImageSetId]:
     """Render and write ``count`` image sets ``<city>_000000_<frame:06d>`` under ``out_root``.
 
     ``stereo``: ``"realistic"`` writes disparity as semi-global matching measures it,
     ``"exact"`` the exact disparity with 2 % holes; ``photo``: ``"realistic"`` the photo as
-    Cityscapes' camera records it, ``"clean"`` the shading as it is (see :func:`render_scene`).
+    Cityscapes' camera records it, ``"clean"`` the shading as it is (see :func:`render_scene`);
+    ``right``: the right view of the stereo pair too (rightImg8bit).
 
     Frame i uses ``np.random.default_rng([seed, i])``: the same arguments give byte-identical
     files, and frames do not depend on ``count``. Returns the ids written, in order.
@@ -57,6 +63,6 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
     for i in range(count):
         scene = random_scene(np.random.default_rng([seed, i]), width, height)
         ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
-        write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo))
+        write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo, right=right))
         idents.append(ident)
     return idents

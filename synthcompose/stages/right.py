@@ -1,0 +1,63 @@
+"""Stages 4-5 for the right view: the objects shaded for the left photo, with the same light,
+ground planes, real shadows, camera tones, blur and noise level, rendered from the right camera
+of the stereo pair and composed into the right photo (:func:`shade_right`). The real scene in
+front of them is the left view's, carried to the right camera (:mod:`synthcompose.right_view`),
+so that the pair stays a stereo pair: an object's pixels lie ``fx * baseline / z`` apart in the
+two photos, the disparity the left view writes for them.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Sequence
+
+import numpy as np
+
+from ..compose import FRONT_LABELS, Composer, SceneLayers
+from ..lighting import CameraMatch
+from ..lighting.light import Lighting
+from ..render import RenderObject, Renderer
+from ..render.values import roi_for
+from ..right_view import carry_to_right
+from .prepare import Prepared
+
+
+def right_noise_seed(seed: int) -> int:
+    """The right camera's noise seed, from the left one's: its own sensor, the same level."""
+    return int(np.random.SeedSequence([int(seed), 1]).generate_state(1, np.uint64)[0] >> 1)
+
+
+def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects: Sequence[RenderObject],
+                lighting: Lighting, sun_mask: np.ndarray | None, scene: SceneLayers, classes: Sequence[int],
+                instances: Sequence[int], match: CameraMatch | None,
+                tones: Sequence[tuple[float, float]] | None) -> np.ndarray:
+    """(H, W, 3) uint8: the right photo with ``objects`` in it (as the left view's ``scene``
+    layers, ``sun_mask``, camera ``match`` and ``tones`` shaded them); unchanged where nothing
+    of them is in the right camera's view."""
+    photo = prep.image_set.right_rgb
+    left = prep.image_set.camera
+    cam = left.right_camera()
+    roi = roi_for(cam, objects, lighting)
+    if roi is None:
+        return photo
+    rows, cols = roi.slices
+    layers = {"label_ids": scene.label_ids, "instance_ids": scene.instance_ids}
+    if scene.ground is not None:
+        layers["ground"] = scene.ground
+    if sun_mask is not None:
+        layers["sun"] = np.asarray(sun_mask, np.float32)
+    carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=np.isin(scene.label_ids, FRONT_LABELS))
+    passes = renderer.render(cam, objects, lighting, photo=photo, roi=roi, sun_mask=carried.get("sun"),
+                             eye=(left, prep.image_set.rgb))
+    if passes is None:
+        return photo
+    try:
+        right = SceneLayers(photo, carried["label_ids"], carried["instance_ids"],
+                            np.zeros(carried["label_ids"].shape, np.uint16), carried["depth"], scene.disparity_scale,
+                            ground=carried.get("ground"), ground_band=scene.ground_band)
+        match = None if match is None else replace(match, seed=right_noise_seed(match.seed))
+        out = composer.compose_roi(passes, right, classes, instances, match, tones)
+    finally:
+        renderer.release(passes)
+    rgb = photo.copy()
+    rgb[rows, cols] = out["rgb"]
+    return rgb

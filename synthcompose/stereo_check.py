@@ -1,0 +1,136 @@
+"""Does an augmented image set still make a stereo pair? A semi-global matcher (OpenCV's
+StereoSGBM) is run on the augmented left/right photos and on the input pair, and compared with
+the disparity the tool wrote (:func:`check_pair`).
+
+* over the inserted objects' visible pixels (the record's masks): the share of the pixels where
+  the matcher finds a disparity that lies within 1 px of the written one;
+* elsewhere: the share of pixels where the matcher finds the same disparity (within 1 px) on the
+  augmented pair as on the input pair, over the pixels whose matching window saw no change in
+  either photo (the left window, and the right one at the input pair's match).
+
+Used by ``benchmarks/eval_stereo.py`` (generated and real frames) and the tests.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .dataset import ImageSetId
+from .fileio import decode_disparity, decode_rle, read_png
+from .labels import label_ids
+from .lighting.camera import estimate_noise
+from .record import read_record
+
+#: the matcher's settings: 5x5 windows, eight paths, a left-right check, a match 15 % better
+#: than the next, up to 256 px (an object 1.9 m from a Cityscapes camera), output in 1/16 px
+BLOCK = 5
+NUM_DISPARITIES = 256
+#: a window measures a disparity when its horizontal texture bounds the disparity's error
+#: (sqrt(2) sigma_noise / sqrt(sum of squared horizontal gradients), the matching cost's
+#: curvature) to this many pixels: flat paint, a plain window, a blank plate do not
+MEASURABLE_PX = 0.2
+
+
+def sgbm(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """(H, W) float32 disparity of an RGB pair by OpenCV's StereoSGBM, NaN where none."""
+    matcher = cv2.StereoSGBM_create(minDisparity=0, numDisparities=NUM_DISPARITIES, blockSize=BLOCK,
+                                    P1=4 * 3 * BLOCK ** 2, P2=12 * 3 * BLOCK ** 2, disp12MaxDiff=1,
+                                    uniquenessRatio=15, speckleWindowSize=100, speckleRange=2,
+                                    mode=cv2.STEREO_SGBM_MODE_HH)
+    raw = matcher.compute(cv2.cvtColor(left, cv2.COLOR_RGB2GRAY), cv2.cvtColor(right, cv2.COLOR_RGB2GRAY))
+    d = raw.astype(np.float32) / 16.0
+    d[raw <= 0] = np.nan
+    return d
+
+
+@dataclass(frozen=True)
+class PairCheck:
+    """One image set's figures (shares in 0..1; NaN when there is nothing to count)."""
+
+    key: str
+    object_pixels: int  # visible pixels of the inserted objects (left view)
+    matched: int  # of those, where the matcher found a disparity
+    within_1px: float  # of the matched, share within 1 px of the written disparity
+    matched_measurable: int  # of the matched, where the window's texture measures a disparity
+    within_1px_measurable: float  # of those, share within 1 px of the written disparity
+    median_error_px: float  # median |matcher - written| over the matched
+    real_matched: int  # the frame's own cars and people (labels): matched pixels
+    real_within_1px: float  # of those, within 1 px of the input disparity (the same matcher)
+    real_within_1px_measurable: float
+    elsewhere_pixels: int  # pixels whose matching windows saw no change
+    elsewhere_same: float  # share of those (matched on both pairs) with the same disparity within 1 px
+    right_changed: int  # pixels of the right photo that changed
+
+    def to_dict(self) -> dict:
+        return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
+
+
+def measurable(rgb: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels whose matching window has the texture to measure a disparity to
+    :data:`MEASURABLE_PX` at the photo's own noise level (``lighting.camera.estimate_noise``)."""
+    gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    gx = cv2.Sobel(gray, cv2.CV_32F, 1, 0, ksize=1) * 0.5  # central difference, code values per pixel
+    energy = cv2.boxFilter(gx * gx, -1, (BLOCK, BLOCK), normalize=False)
+    sigma = max(float(np.mean(estimate_noise(rgb))), 0.5)  # at least the 8-bit quantisation's
+    return energy >= 2.0 * sigma ** 2 / MEASURABLE_PX ** 2
+
+
+def _agreement(d: np.ndarray, truth: np.ndarray, mask: np.ndarray, texture: np.ndarray) -> tuple:
+    """(found, within 1 px of the found, measurable found, within 1 px of those)."""
+    found = mask & np.isfinite(d) & np.isfinite(truth)
+    err = np.abs(d - truth)
+    share = float((err[found] <= 1.0).mean()) if found.any() else float("nan")
+    both = found & texture
+    share_m = float((err[both] <= 1.0).mean()) if both.any() else float("nan")
+    return int(found.sum()), share, int(both.sum()), share_m
+
+
+def _changed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return (a != b).any(axis=2)
+
+
+def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
+    """Match the augmented pair under ``outputs`` and the input pair under ``inputs``."""
+    left_in, right_in = read_png(ident.path(inputs, "rgb"), "rgb8"), read_png(ident.path(inputs, "right"), "rgb8")
+    left_out, right_out = read_png(ident.path(outputs, "rgb"), "rgb8"), read_png(ident.path(outputs, "right"), "rgb8")
+    written_raw = read_png(ident.path(outputs, "disparity"), "gray16")
+    written = np.where(written_raw > 0, decode_disparity(written_raw), np.nan)
+    record = read_record(ident.path(outputs, "record"))
+    h, w = left_out.shape[:2]
+    objects = np.zeros((h, w), bool)
+    for o in record.objects:
+        if o.mask_rle is not None:
+            objects |= decode_rle(o.mask_rle).astype(bool)
+    d_out = sgbm(left_out, right_out)
+    d_in = sgbm(left_in, right_in)
+    texture = measurable(left_out)
+    matched, within, matched_m, within_m = _agreement(d_out, written, objects, texture)
+    err = np.abs(d_out - written)[objects & np.isfinite(d_out) & np.isfinite(written)]
+    median = float(np.median(err)) if err.size else float("nan")
+    # the same matcher on the frame's own cars and people, against the input's disparity
+    real_matched, real_within, real_within_m = 0, float("nan"), float("nan")
+    if ident.path(inputs, "labelIds").exists():
+        labels = read_png(ident.path(inputs, "labelIds"), "gray8")
+        own = cv2.erode(np.isin(labels, label_ids("car", "person")).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        raw_in = read_png(ident.path(inputs, "disparity"), "gray16")
+        disp_in = np.where(raw_in > 0, decode_disparity(raw_in), np.nan)
+        real_matched, real_within, _, real_within_m = _agreement(d_in, disp_in, own & ~objects, measurable(left_in))
+
+    # elsewhere: the left window unchanged, and the right window at the input pair's match
+    kernel = np.ones((BLOCK, BLOCK), np.uint8)
+    left_touch = cv2.dilate(_changed(left_in, left_out).astype(np.uint8), kernel) > 0
+    right_changed = _changed(right_in, right_out)
+    right_touch = cv2.dilate(right_changed.astype(np.uint8), kernel) > 0
+    both = np.isfinite(d_in) & np.isfinite(d_out) & ~objects & ~left_touch
+    rows, cols = np.nonzero(both)
+    target = np.rint(cols - d_in[rows, cols]).astype(np.int64)
+    inside = target >= 0
+    keep = np.zeros_like(both)
+    keep[rows[inside], cols[inside]] = ~right_touch[rows[inside], target[inside]]
+    same = np.abs(d_out[keep] - d_in[keep]) <= 1.0
+    return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, real_matched,
+                     real_within, real_within_m, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
+                     int(right_changed.sum()))
