@@ -59,11 +59,11 @@ def children_cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def dataset(count: int, width: int, height: int) -> Path:
-    data = ROOT / "out" / "bench" / f"cityscapes-{width}x{height}-{count}"
+def dataset(count: int, width: int, height: int, right: bool = False) -> Path:
+    data = ROOT / "out" / "bench" / f"cityscapes-{width}x{height}-{count}{'-stereo' if right else ''}"
     if not (data / ".complete").exists():
         print(f"generating {count} image sets at {width}x{height} in {data} ...", flush=True)
-        make_sample(data, count=count, width=width, height=height, seed=123)
+        make_sample(data, count=count, width=width, height=height, seed=123, right=right)
         (data / ".complete").touch()
     return data
 
@@ -83,12 +83,12 @@ def codec_cpu(root: Path, count: int) -> float:
         cv2.setNumThreads(-1)
 
 
-def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1) -> Path:
+def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, **extra) -> Path:
     path = folder / "bench.json"
     splits = sorted({i.split for i in find_image_sets(data)})
     path.write_text(json.dumps({
         "dataset": str(data), "output": str(out), "seed": 1, "splits": splits, "objects_per_image": objects,
-        "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]}))
+        "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]} | extra))
     return path
 
 
@@ -107,10 +107,11 @@ print(json.dumps({"summary": s.to_dict(), "rss_self_mb": me / 1024, "rss_childre
 """
 
 
-def run_batch(data: Path, workers: int, limit: int) -> dict:
-    """One `synthcompose batch` in a child process: wall, CPU of the child and its workers, RSS."""
+def run_batch(data: Path, workers: int, limit: int, keep: Path | None = None, **extra) -> dict:
+    """One `synthcompose batch` in a child process: wall, CPU of the child and its workers, RSS.
+    ``keep``: the output root to write (and keep); ``extra``: manifest fields."""
     with tempfile.TemporaryDirectory() as tmp:
-        manifest = manifest_for(data, Path(tmp) / "out", Path(tmp))
+        manifest = manifest_for(data, keep or Path(tmp) / "out", Path(tmp), **extra)
         c0, t0 = children_cpu_s(), time.perf_counter()
         out = subprocess.run([sys.executable, "-c", _CHILD, str(manifest), str(workers), str(limit)],
                              check=True, capture_output=True, text=True).stdout
@@ -121,7 +122,7 @@ def run_batch(data: Path, workers: int, limit: int) -> dict:
         return result
 
 
-def stage_cpu(data: Path, count: int) -> tuple[dict[str, float], int]:
+def stage_cpu(data: Path, count: int, objects: int = 1) -> tuple[dict[str, float], int]:
     """CPU-seconds per image set of each stage, the stages one after the other in this process."""
     from synthcompose.manifest import load_manifest
     from synthcompose.pipeline import Pipeline
@@ -139,7 +140,7 @@ def stage_cpu(data: Path, count: int) -> tuple[dict[str, float], int]:
 
     modules = [m for name, m in sys.modules.items() if name.startswith("synthcompose.stages.")]
     with tempfile.TemporaryDirectory() as tmp:
-        manifest = load_manifest(manifest_for(data, Path(tmp) / "out", Path(tmp)))
+        manifest = load_manifest(manifest_for(data, Path(tmp) / "out", Path(tmp), objects))
         idents = find_image_sets(data)[:count]
         with Pipeline(manifest) as pipe:
             pipe.process(idents[0])  # warm-up: shaders, the model
@@ -165,7 +166,7 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
         r = run_batch(data, w, count)
         per_cpu, per_wall = r["cpu_s"] / r["sets"], r["wall_s"] / r["sets"]
         peak = r["rss_self_mb"] if w == 1 else r["rss_children_mb"]
-        rows.append((w, per_cpu, per_wall, per_wall / (per_cpu / min(w, cores)), peak))
+        rows.append((w, per_cpu, per_wall, per_wall / (per_cpu / cores), peak))
     best = min(rows, key=lambda r: r[2])
     print(f"\n== {name}: {count} image sets, {data}")
     print(f"HEADLINE  CPU-s per image set {rows[0][1]:.3f} = {rows[0][1] / codec:.2f} x the PNG codec's "

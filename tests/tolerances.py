@@ -213,3 +213,18 @@ def ground_z_tolerance(noise, depth_m: float) -> float:
     """Largest allowed |contact height - true ground| for an object ``depth_m`` metres away on
     a frame of stereo noise ``noise`` (a placement StereoNoise)."""
     return max(GROUND_Z_M, GROUND_Z_SIGMAS * float(noise.height_sigma(depth_m)))
+
+# --- the right view of the stereo pair (test_right_view.py, test_real_pair.py)
+#: a stereo matcher on the augmented pair: share of the objects' matched pixels with texture to
+#: measure a disparity (stereo_check.measurable) within 1 px of the written one (the issue's target)
+PAIR_WITHIN_1PX_MEASURABLE_MIN = 0.90
+#: elsewhere (windows that saw no change), share matched alike on the augmented and the input pair
+PAIR_ELSEWHERE_SAME_MIN = 0.99
+#: the right photo's changes lie within this many pixels of the left changes carried by the written
+#: disparity (the object layer's blur, the disparity's rounding and holes) ...
+RIGHT_CHANGE_MARGIN_PX = 3
+#: ... but for at most this share of them
+RIGHT_CHANGE_OUTSIDE_MAX = 0.01
+#: the generator's right photo: the residual against the left one, warped by the true disparity,
+#: is this many times smaller than warped 2 px off
+RIGHT_PHOTO_MATCH_MARGIN = 1.5

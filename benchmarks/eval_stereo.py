@@ -1,0 +1,80 @@
+"""Does the augmented image set stay a stereo pair? On generated image sets with right photos
+(cached under out/bench/) and, with --real, on a real Cityscapes root with rightImg8bit:
+
+* `synthcompose batch` with the right view on and off (child processes): CPU-seconds per set of
+  each, their difference, and the right view's own stage time (render + compose, `right`);
+* per image set (stereo_check.check_pair, OpenCV StereoSGBM on the augmented pair): over the
+  inserted objects' visible pixels, the share the matcher matched, the share of those within
+  1 px of the written disparity, the same over the pixels whose window has the texture to
+  measure a disparity, and the same figures for the frame's own cars and people against the
+  input disparity; elsewhere, the share matched alike on the augmented and the input pair.
+
+    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--real /path/to/cityscapes] [--keep DIR]
+
+Never commit outputs made from real frames.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_cost import dataset, run_batch, stage_cpu  # noqa: E402
+
+from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.stereo_check import check_pair  # noqa: E402
+
+
+def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
+    on = run_batch(data, 1, count, keep=keep / name, objects_per_image=objects)
+    off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False})
+    per = lambda r: r["cpu_s"] / r["sets"]  # noqa: E731
+    stages, _ = stage_cpu(data, count, objects)
+    print(f"\n== {name}: {on['sets']} image sets, {objects} objects each, {data}")
+    print(f"CPU-s per set: right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
+          f"the right view's render + compose (stage 'right', the stages one after the other) "
+          f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}")
+    cols = ("object_pixels", "matched", "within_1px", "matched_measurable", "within_1px_measurable",
+            "real_within_1px", "real_within_1px_measurable", "elsewhere_same", "right_changed")
+    print(f"{'image set':<42}" + "".join(f"{c:>16}" for c in ("objects px", "matched", "<=1px", "measurable",
+                                                               "<=1px (meas.)", "own <=1px", "own (meas.)",
+                                                               "elsewhere same", "right changed")))
+    pooled = {"m": 0, "w": 0.0, "mm": 0, "wm": 0.0}
+    for ident in find_image_sets(data)[:count]:
+        if not ident.path(keep / name, "right").is_file():
+            continue
+        c = check_pair(data, keep / name, ident)
+        d = c.to_dict()
+        print(f"{c.key[-42:]:<42}" + "".join(f"{d[k]:>16}" for k in cols))
+        if c.matched:
+            pooled["m"] += c.matched
+            pooled["w"] += c.matched * c.within_1px
+        if c.matched_measurable:
+            pooled["mm"] += c.matched_measurable
+            pooled["wm"] += c.matched_measurable * c.within_1px_measurable
+    print(f"pooled: within 1 px {pooled['w'] / max(pooled['m'], 1):.3f} of {pooled['m']} matched object pixels; "
+          f"{pooled['wm'] / max(pooled['mm'], 1):.3f} of {pooled['mm']} measurable (target >= 0.90)")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--count", type=int, default=4)
+    ap.add_argument("--objects", type=int, default=3)
+    ap.add_argument("--real", type=Path, help="a Cityscapes root with rightImg8bit (real frames)")
+    ap.add_argument("--keep", type=Path, help="keep the augmented outputs here (default: a temporary folder)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        keep = args.keep or Path(tmp)
+        report("generated", dataset(args.count, 2048, 1024, right=True), args.count, args.objects, keep)
+        if args.real is not None:
+            report("real", args.real, args.count, args.objects, keep)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

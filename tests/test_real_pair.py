@@ -1,0 +1,35 @@
+"""The right view on real Cityscapes frames (root from SYNTHCOMPOSE_REAL_ROOT, with rightImg8bit;
+skipped without it, as in CI): a stereo matcher run on the augmented pair finds the written
+disparity on the inserted objects, and elsewhere what it found on the input pair. Outputs go to
+a temporary folder, never into the repository."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from synthcompose.cli import main
+from synthcompose.dataset import find_image_sets
+from synthcompose.stereo_check import check_pair
+
+from .test_batch import write_manifest
+from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN
+
+REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
+pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a Cityscapes root) not set")
+
+
+def test_real_pairs_stay_stereo_pairs(tmp_path):
+    root = Path(REAL)
+    idents = [i for i in find_image_sets(root) if i.path(root, "right").is_file()][:4]
+    if not idents:
+        pytest.skip("the real root has no rightImg8bit")
+    manifest = write_manifest(tmp_path / "m.json", root, tmp_path / "out", seed=2,
+                              frames=[i.name for i in idents], objects_per_image=3)
+    assert main(["batch", str(manifest), "--workers", "1"]) == 0
+    checks = [check_pair(root, tmp_path / "out", i) for i in idents if i.path(tmp_path / "out", "right").is_file()]
+    assert checks
+    for c in checks:
+        assert c.within_1px_measurable >= PAIR_WITHIN_1PX_MEASURABLE_MIN, c
+        assert c.elsewhere_same >= PAIR_ELSEWHERE_SAME_MIN, c
