@@ -24,10 +24,20 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cost import dataset, run_batch, stage_cpu  # noqa: E402
+from bench_cost import cpu_s, dataset, run_batch, stage_cpu  # noqa: E402
 
 from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.fileio import encode_png, read_png  # noqa: E402
 from synthcompose.stereo_check import check_pair  # noqa: E402
+
+
+def right_codec_cpu(data: Path, count: int) -> float:
+    """CPU-seconds per set to decode the right photo and encode it once (what its file costs)."""
+    idents = find_image_sets(data)[:count]
+    t0 = cpu_s()
+    for ident in idents:
+        encode_png(read_png(ident.path(data, "right"), "rgb8"))
+    return (cpu_s() - t0) / max(len(idents), 1)
 
 
 def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
@@ -38,7 +48,8 @@ def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
     print(f"\n== {name}: {on['sets']} image sets, {objects} objects each, {data}")
     print(f"CPU-s per set: right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
           f"the right view's render + compose (stage 'right', the stages one after the other) "
-          f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}")
+          f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}; "
+          f"the right photo's PNG read and written {right_codec_cpu(data, count):.3f}")
     cols = ("object_pixels", "matched", "within_1px", "matched_measurable", "within_1px_measurable",
             "real_within_1px", "real_within_1px_measurable", "elsewhere_same", "right_changed")
     print(f"{'image set':<42}" + "".join(f"{c:>16}" for c in ("objects px", "matched", "<=1px", "measurable",
