@@ -40,7 +40,7 @@ from .stages import (Outcome, PhotoLight, Placed, Prepared, Shaded, measure_ligh
 
 log = logging.getLogger("synthcompose")
 
-STAGES = ("read", "geometry", "placement", "lighting", "render", "compose", "write")
+STAGES = ("read", "geometry", "placement", "lighting", "render", "compose", "right", "write")
 
 __all__ = ["Outcome", "Pipeline", "STAGES"]
 

@@ -25,7 +25,8 @@ from .lighting.camera import estimate_noise
 from .record import read_record
 
 #: the matcher's settings: 5x5 windows, eight paths, a left-right check, a match 15 % better
-#: than the next, up to 256 px (an object 1.9 m from a Cityscapes camera), output in 1/16 px
+#: than the next, up to 256 px at 2048 px wide (an object 1.9 m from a Cityscapes camera; in
+#: proportion at other widths), output in 1/16 px
 BLOCK = 5
 NUM_DISPARITIES = 256
 #: a window measures a disparity when its horizontal texture bounds the disparity's error
@@ -36,7 +37,8 @@ MEASURABLE_PX = 0.2
 
 def sgbm(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     """(H, W) float32 disparity of an RGB pair by OpenCV's StereoSGBM, NaN where none."""
-    matcher = cv2.StereoSGBM_create(minDisparity=0, numDisparities=NUM_DISPARITIES, blockSize=BLOCK,
+    span = max(16, int(round(NUM_DISPARITIES * left.shape[1] / 2048 / 16)) * 16)
+    matcher = cv2.StereoSGBM_create(minDisparity=0, numDisparities=span, blockSize=BLOCK,
                                     P1=4 * 3 * BLOCK ** 2, P2=12 * 3 * BLOCK ** 2, disp12MaxDiff=1,
                                     uniquenessRatio=15, speckleWindowSize=100, speckleRange=2,
                                     mode=cv2.STEREO_SGBM_MODE_HH)
