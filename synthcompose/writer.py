@@ -44,7 +44,7 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
 
 
 #: the kinds of file written per image set (dataset.ImageSetId.path), the record last
-WRITTEN_KINDS = ("rgb", "right", "labelIds", "instanceIds", "color", "disparity", "camera", "polygons", "record")
+WRITTEN_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "right", "polygons", "record")
 
 
 def output_paths(out_root: Path, ident: ImageSetId) -> list[Path]:
