@@ -21,6 +21,28 @@ MAX_OBJECT_BLUR = 1.6
 
 _IMMERKAER = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)  # L2 norm 6
 
+#: noise and blur are pixel-level measures: they are taken at full resolution, but on a sample
+#: of the rows - bands of SAMPLE_BAND rows every SAMPLE_PERIOD rows, each read with
+#: SAMPLE_MARGIN rows of context either side (more than the filters reach: the Gaussian of
+#: sigma 1 at 4 rows, the Sobel and the Immerkaer mask at 1, the dilation at 2), so that every
+#: pixel of a band gets the values the whole frame would give it (the Canny edges' tracing
+#: aside); a quarter of the frame's pixels leaves the medians far more samples than they need
+SAMPLE_BAND, SAMPLE_PERIOD, SAMPLE_MARGIN = 32, 128, 8
+
+
+def sample_rows(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bands of rows noise and blur are measured on (:data:`SAMPLE_BAND`), stacked with their
+    context rows: (rows, W, 3) uint8, and (rows,) bool: which rows count (not the context)."""
+    H = rgb.shape[0]
+    if H < 2 * SAMPLE_PERIOD:
+        return rgb, np.ones(H, bool)
+    parts, counts = [], []
+    for start in range((SAMPLE_PERIOD - SAMPLE_BAND) // 2, H - SAMPLE_BAND + 1, SAMPLE_PERIOD):
+        lo, hi = max(start - SAMPLE_MARGIN, 0), min(start + SAMPLE_BAND + SAMPLE_MARGIN, H)
+        parts.append(np.arange(lo, hi))
+        counts.append((parts[-1] >= start) & (parts[-1] < start + SAMPLE_BAND))
+    return rgb[np.concatenate(parts)], np.concatenate(counts)
+
 
 def _grouped_median(values: np.ndarray) -> float:
     """Median of non-negative integer-valued data, interpolated within its integer bin (a plain
@@ -33,22 +55,26 @@ def _grouped_median(values: np.ndarray) -> float:
     return float(k - 0.5 + (half - below) / max(counts[k], 1))
 
 
-def estimate_noise(rgb: np.ndarray) -> np.ndarray:
+def estimate_noise(rgb: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
     """(3,) noise standard deviation of each channel, in 8-bit code values: robust MAD of a
     Laplacian-like high-pass (Immerkaer's mask, blind to planes) over the flat half of the
-    image, away from edges and clipped values."""
+    image, away from edges and clipped values. ``rows``: (H,) bool, the rows that count (the
+    others are context: :func:`sample_rows`); None: all."""
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
     smooth = cv2.GaussianBlur(grey, (0, 0), 1.0)
     grad = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
-    lo, hi = np.quantile(grad[::4, ::4], [0.5, 0.8])
+    counted = grad if rows is None else grad[rows]
+    lo, hi = np.quantile(counted[::4, ::4], [0.5, 0.8])
     flat = grad <= lo
     flat &= cv2.dilate((grad > hi).astype(np.uint8), np.ones((5, 5), np.uint8)) == 0
     channels = cv2.split(np.ascontiguousarray(rgb))
     flat &= (cv2.min(cv2.min(channels[0], channels[1]), channels[2]) > 4) & \
         (cv2.max(cv2.max(channels[0], channels[1]), channels[2]) < 251)
     flat[:2], flat[-2:], flat[:, :2], flat[:, -2:] = False, False, False, False
+    if rows is not None:
+        flat[~rows] = False
     if flat.sum() < 500:
-        flat[2:-2, 2:-2] = True
+        flat[2:-2, 2:-2] = True if rows is None else rows[2:-2, None]
     out = np.empty(3)
     for c in range(3):
         # integer mask on 8-bit data: exact in 16 bits (|r| <= 16 * 255)
@@ -57,17 +83,20 @@ def estimate_noise(rgb: np.ndarray) -> np.ndarray:
     return out
 
 
-def estimate_blur(rgb: np.ndarray, reblur: float = 1.0) -> float:
+def estimate_blur(rgb: np.ndarray, reblur: float = 1.0, rows: np.ndarray | None = None) -> float:
     """Blur of the photo as the sigma (pixels) of an equivalent Gaussian, from its strong edges:
     re-blurring a step edge of blur s by ``reblur`` lowers its peak gradient by the factor
     sqrt(s^2 + reblur^2) / s (Zhuo & Sim's defocus estimate); median over edge pixels. An ideal
-    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`."""
+    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`. ``rows``: as for
+    :func:`estimate_noise`."""
     grey8 = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     grey = grey8.astype(np.float32)
     re = cv2.GaussianBlur(grey, (0, 0), reblur)
 
     edges = cv2.Canny(grey8, 40, 100) > 0
     edges[:3], edges[-3:], edges[:, :3], edges[:, -3:] = False, False, False, False
+    if rows is not None:
+        edges[~rows] = False
     if edges.sum() < 50:
         return float("nan")
 
@@ -101,8 +130,9 @@ class CameraMatch:
 
     @classmethod
     def measure(cls, rgb: np.ndarray, seed: int = 0) -> "CameraMatch":
-        noise = estimate_noise(rgb)
-        blur = estimate_blur(rgb)
+        sample, rows = sample_rows(rgb)
+        noise = estimate_noise(sample, rows)
+        blur = estimate_blur(sample, rows=rows)
         extra = 0.0 if not math.isfinite(blur) else math.sqrt(max(blur ** 2 - RENDER_BLUR_SIGMA ** 2, 0.0))
         return cls(tuple(float(v) for v in noise), float(blur) if math.isfinite(blur) else 0.0,
                    float(min(extra, MAX_OBJECT_BLUR)), int(seed))
