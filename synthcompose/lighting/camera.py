@@ -168,6 +168,8 @@ ROAD_ID = label_id("road")
 #: ratio varies from frame to frame with the cars parked there)
 ROAD_PRIOR = ((0.22, 0.28, 0.39, 0.57, 0.94, 1.48, 1.6), (0.98, 1.03, 1.08, 1.13, 1.18, 1.45, 1.47))
 ROAD_PRIOR_CLASSES = (26, 27, 28, 29)  # car, truck, bus, caravan
+#: the road's tone is taken on every ROAD_STRIDE-th row and column (single pixels, not averaged)
+ROAD_STRIDE = 2
 
 
 def _linear(v: float) -> float:
@@ -195,9 +197,14 @@ class ToneReference:
         """From the photo, its instance ids (None: no objects to refer to) and its labels (or the
         surfaces found without them: the road, for :data:`ROAD_PRIOR`)."""
         road = None
-        if label_ids is not None and (label_ids == ROAD_ID).sum() >= 2000:
-            px = cv2.cvtColor(rgb[label_ids == ROAD_ID][None], cv2.COLOR_RGB2HSV_FULL)[0]
-            road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
+        if label_ids is not None:
+            # medians over the road: every ROAD_STRIDE-th pixel of every ROAD_STRIDE-th row is
+            # plenty, and keeps each pixel's own noise (which the references' tones carry too)
+            sub = (slice(None, None, ROAD_STRIDE),) * 2
+            on_road = label_ids[sub] == ROAD_ID
+            if on_road.sum() * ROAD_STRIDE ** 2 >= 2000:
+                px = cv2.cvtColor(rgb[sub][on_road][None], cv2.COLOR_RGB2HSV_FULL)[0]
+                road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
         if instance_ids is None:
             return cls({}, road)
         from ..look import instance_tones
