@@ -67,9 +67,11 @@ def instance_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int | No
     rows, cols = np.nonzero(sel)
     if not len(rows):
         return out
-    ids, which, counts = np.unique(instance_ids[rows, cols], return_inverse=True, return_counts=True)
-    order = np.argsort(which, kind="stable")  # pixels grouped by instance
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    values = instance_ids[rows, cols]
+    order = np.argsort(values, kind="stable")  # pixels grouped by instance
+    grouped = values[order]
+    starts = np.concatenate([[0], np.flatnonzero(grouped[1:] != grouped[:-1]) + 1])
+    ids, counts = grouped[starts], np.diff(np.append(starts, len(grouped)))
     bounds = [np.minimum.reduceat(rows[order], starts), np.maximum.reduceat(rows[order], starts),
               np.minimum.reduceat(cols[order], starts), np.maximum.reduceat(cols[order], starts)]
     H, W = instance_ids.shape
