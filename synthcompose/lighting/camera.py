@@ -22,26 +22,39 @@ MAX_OBJECT_BLUR = 1.6
 _IMMERKAER = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)  # L2 norm 6
 
 #: noise and blur are pixel-level measures: they are taken at full resolution, but on a sample
-#: of the rows - bands of SAMPLE_BAND rows every SAMPLE_PERIOD rows, each read with
-#: SAMPLE_MARGIN rows of context either side (more than the filters reach: the Gaussian of
-#: sigma 1 at 4 rows, the Sobel and the Immerkaer mask at 1, the dilation at 2), so that every
-#: pixel of a band gets the values the whole frame would give it (the Canny edges' tracing
-#: aside); a quarter of the frame's pixels leaves the medians far more samples than they need
-SAMPLE_BAND, SAMPLE_PERIOD, SAMPLE_MARGIN = 32, 128, 8
+#: of the frame - a quarter of its SAMPLE_TILE x SAMPLE_TILE tiles, staggered over its rows and
+#: columns (scenes are layered by rows: sky, facades, road), each read with SAMPLE_MARGIN pixels
+#: of context (more than the filters reach: the Gaussian of sigma 1 at 4 pixels, the Sobel and
+#: the Immerkaer mask at 1, the dilation at 2), so that each pixel of a tile gets the values the
+#: whole frame would give it (the Canny edges' tracing aside); a quarter of the frame's pixels
+#: leaves the medians far more samples than they need
+SAMPLE_TILE, SAMPLE_MARGIN = 64, 8
+_FRAME_BORDER = 3  # pixels along the frame's border that never count (the filters' own border)
 
 
-def sample_rows(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The bands of rows noise and blur are measured on (:data:`SAMPLE_BAND`), stacked with their
-    context rows: (rows, W, 3) uint8, and (rows,) bool: which rows count (not the context)."""
-    H = rgb.shape[0]
-    if H < 2 * SAMPLE_PERIOD:
-        return rgb, np.ones(H, bool)
-    parts, counts = [], []
-    for start in range((SAMPLE_PERIOD - SAMPLE_BAND) // 2, H - SAMPLE_BAND + 1, SAMPLE_PERIOD):
-        lo, hi = max(start - SAMPLE_MARGIN, 0), min(start + SAMPLE_BAND + SAMPLE_MARGIN, H)
-        parts.append(np.arange(lo, hi))
-        counts.append((parts[-1] >= start) & (parts[-1] < start + SAMPLE_BAND))
-    return rgb[np.concatenate(parts)], np.concatenate(counts)
+def sample_tiles(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The tiles noise and blur are measured on (:data:`SAMPLE_TILE`), with their context,
+    stacked one above the other: (n * (T + 2M), T + 2M, 3) uint8, and a bool array of that
+    shape: the pixels that count (in the tile, in the frame). A small frame is used whole."""
+    H, W = rgb.shape[:2]
+    T, M = SAMPLE_TILE, SAMPLE_MARGIN
+    inside = np.zeros((H + 2 * M + T, W + 2 * M + T), bool)
+    inside[M + _FRAME_BORDER:M + H - _FRAME_BORDER, M + _FRAME_BORDER:M + W - _FRAME_BORDER] = True
+    if H < 4 * T or W < 4 * T:
+        return rgb, inside[M:M + H, M:M + W].copy()
+    # the frame reflected at its border as the filters would; T more at the far sides for the
+    # last, partial tiles (their pixels out of the frame do not count)
+    pad = cv2.copyMakeBorder(rgb, M, M + T, M, M + T, cv2.BORDER_REFLECT_101)
+    tiles, counts = [], []
+    for i, r0 in enumerate(range(0, H, T)):
+        for j, c0 in enumerate(range(0, W, T)):
+            if (2 * i + j) % 4 == 0:
+                window = (slice(r0, r0 + T + 2 * M), slice(c0, c0 + T + 2 * M))
+                tiles.append(pad[window])
+                count = np.zeros((T + 2 * M, T + 2 * M), bool)
+                count[M:M + T, M:M + T] = inside[window][M:M + T, M:M + T]
+                counts.append(count)
+    return np.concatenate(tiles), np.concatenate(counts)
 
 
 def _grouped_median(values: np.ndarray) -> float:
@@ -55,26 +68,25 @@ def _grouped_median(values: np.ndarray) -> float:
     return float(k - 0.5 + (half - below) / max(counts[k], 1))
 
 
-def estimate_noise(rgb: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+def estimate_noise(rgb: np.ndarray, counted: np.ndarray | None = None) -> np.ndarray:
     """(3,) noise standard deviation of each channel, in 8-bit code values: robust MAD of a
     Laplacian-like high-pass (Immerkaer's mask, blind to planes) over the flat half of the
-    image, away from edges and clipped values. ``rows``: (H,) bool, the rows that count (the
-    others are context: :func:`sample_rows`); None: all."""
+    image, away from edges and clipped values. ``counted``: (H, W) bool, the pixels that count
+    (the others are context: :func:`sample_tiles`); None: all but the border."""
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
     smooth = cv2.GaussianBlur(grey, (0, 0), 1.0)
     grad = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
-    counted = grad if rows is None else grad[rows]
-    lo, hi = np.quantile(counted[::4, ::4], [0.5, 0.8])
+    lo, hi = np.quantile(grad[::4, ::4] if counted is None else grad[counted][::16], [0.5, 0.8])
     flat = grad <= lo
     flat &= cv2.dilate((grad > hi).astype(np.uint8), np.ones((5, 5), np.uint8)) == 0
     channels = cv2.split(np.ascontiguousarray(rgb))
     flat &= (cv2.min(cv2.min(channels[0], channels[1]), channels[2]) > 4) & \
         (cv2.max(cv2.max(channels[0], channels[1]), channels[2]) < 251)
     flat[:2], flat[-2:], flat[:, :2], flat[:, -2:] = False, False, False, False
-    if rows is not None:
-        flat[~rows] = False
+    if counted is not None:
+        flat &= counted
     if flat.sum() < 500:
-        flat[2:-2, 2:-2] = True if rows is None else rows[2:-2, None]
+        flat[2:-2, 2:-2] = True if counted is None else counted[2:-2, 2:-2]
     out = np.empty(3)
     for c in range(3):
         # integer mask on 8-bit data: exact in 16 bits (|r| <= 16 * 255)
@@ -83,11 +95,11 @@ def estimate_noise(rgb: np.ndarray, rows: np.ndarray | None = None) -> np.ndarra
     return out
 
 
-def estimate_blur(rgb: np.ndarray, reblur: float = 1.0, rows: np.ndarray | None = None) -> float:
+def estimate_blur(rgb: np.ndarray, reblur: float = 1.0, counted: np.ndarray | None = None) -> float:
     """Blur of the photo as the sigma (pixels) of an equivalent Gaussian, from its strong edges:
     re-blurring a step edge of blur s by ``reblur`` lowers its peak gradient by the factor
     sqrt(s^2 + reblur^2) / s (Zhuo & Sim's defocus estimate); median over edge pixels. An ideal
-    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`. ``rows``: as for
+    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`. ``counted``: as for
     :func:`estimate_noise`."""
     grey8 = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     grey = grey8.astype(np.float32)
@@ -95,8 +107,8 @@ def estimate_blur(rgb: np.ndarray, reblur: float = 1.0, rows: np.ndarray | None 
 
     edges = cv2.Canny(grey8, 40, 100) > 0
     edges[:3], edges[-3:], edges[:, :3], edges[:, -3:] = False, False, False, False
-    if rows is not None:
-        edges[~rows] = False
+    if counted is not None:
+        edges &= counted
     if edges.sum() < 50:
         return float("nan")
 
@@ -130,9 +142,9 @@ class CameraMatch:
 
     @classmethod
     def measure(cls, rgb: np.ndarray, seed: int = 0) -> "CameraMatch":
-        sample, rows = sample_rows(rgb)
-        noise = estimate_noise(sample, rows)
-        blur = estimate_blur(sample, rows=rows)
+        sample, counted = sample_tiles(rgb)
+        noise = estimate_noise(sample, counted)
+        blur = estimate_blur(sample, counted=counted)
         extra = 0.0 if not math.isfinite(blur) else math.sqrt(max(blur ** 2 - RENDER_BLUR_SIGMA ** 2, 0.0))
         return cls(tuple(float(v) for v in noise), float(blur) if math.isfinite(blur) else 0.0,
                    float(min(extra, MAX_OBJECT_BLUR)), int(seed))
