@@ -60,13 +60,26 @@ def tone(rgb: np.ndarray, mask: np.ndarray, fallback: bool = True) -> Tone | Non
 def instance_tones(rgb: np.ndarray, instance_ids: np.ndarray, class_id: int | None = None,
                    min_pixels: int = MIN_REAL_PIXELS, fallback: bool = True) -> dict[int, Tone]:
     """Instance id -> :class:`Tone` of every real object (of ``class_id``; None: of every class
-    with instances) in the frame with at least ``min_pixels`` visible pixels."""
+    with instances) in the frame with at least ``min_pixels`` visible pixels. Each object is
+    measured within its bounding box (one pixel wider): the same pixels as over the frame."""
     out = {}
     sel = (instance_ids // 1000) == class_id if class_id is not None else instance_ids >= 1000
-    ids, counts = np.unique(instance_ids[sel], return_counts=True)
-    for inst, n in zip(ids, counts):
+    rows, cols = np.nonzero(sel)
+    if not len(rows):
+        return out
+    values = instance_ids[rows, cols]
+    order = np.argsort(values, kind="stable")  # pixels grouped by instance
+    grouped = values[order]
+    starts = np.concatenate([[0], np.flatnonzero(grouped[1:] != grouped[:-1]) + 1])
+    ids, counts = grouped[starts], np.diff(np.append(starts, len(grouped)))
+    bounds = [np.minimum.reduceat(rows[order], starts), np.maximum.reduceat(rows[order], starts),
+              np.minimum.reduceat(cols[order], starts), np.maximum.reduceat(cols[order], starts)]
+    H, W = instance_ids.shape
+    for k, (inst, n) in enumerate(zip(ids, counts)):
         if n >= min_pixels:
-            t = tone(rgb, instance_ids == inst, fallback)
+            r0, r1, c0, c1 = (int(b[k]) for b in bounds)
+            box = (slice(max(r0 - 1, 0), min(r1 + 2, H)), slice(max(c0 - 1, 0), min(c1 + 2, W)))
+            t = tone(rgb[box], instance_ids[box] == inst, fallback)
             if t is not None:
                 out[int(inst)] = t
     return out

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -17,11 +18,12 @@ from synthcompose.colour import linear_to_srgb
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.fileio import decode_rle
 from synthcompose.geometry import disparity_to_depth
-from synthcompose.lighting.camera import ToneReference, object_tones
+from synthcompose.lighting.camera import CameraMatch, ToneReference, estimate_blur, estimate_noise, object_tones
 from synthcompose.models import load_model
 from synthcompose.synthetic import make_sample
 
-from .tolerances import CONTACT_DEPTH_REL, PALETTE_SUM_ABS, SHADOW_BLOTCHINESS_MAX, SHADOW_BLOTCHINESS_MEDIAN, TONE_8BIT
+from .tolerances import (CONTACT_DEPTH_REL, PALETTE_SUM_ABS, ROAD_TONE_8BIT, SAMPLED_BLUR_PX, SAMPLED_NOISE_REL,
+                         SHADOW_BLOTCHINESS_MAX, SHADOW_BLOTCHINESS_MEDIAN, TONE_8BIT)
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 CAR = str(ASSETS / "openmaterial_car" / "vehicle_example.gltf")
@@ -163,3 +165,26 @@ def test_side_by_side_view(composed):
     obj, m = masks[0]
     panel = look.side_by_side(src.rgb, res.rgb, m, src.instance_ids, obj["label_id"], height=128)
     assert panel.dtype == np.uint8 and panel.shape[0] == 128 + 22 and panel.shape[2] == 3
+
+
+def test_the_camera_look_measured_on_a_sample_agrees_with_the_whole_frame(composed):
+    # noise and blur on a quarter of the frame's tiles, the road's tone on every other row and
+    # column, the real objects' tones within their boxes: as measured over the whole frame
+    root, _ = composed
+    for ident in find_image_sets(root):
+        src = read_image_set(root, ident)
+        match = CameraMatch.measure(src.rgb)
+        whole = estimate_noise(src.rgb)
+        assert np.all(np.abs(np.asarray(match.noise_sigma) / whole - 1) <= SAMPLED_NOISE_REL), (match, whole)
+        assert abs(match.blur_sigma - estimate_blur(src.rgb)) <= SAMPLED_BLUR_PX
+        ref = ToneReference.measure(src.rgb, src.instance_ids, src.label_ids)
+        hsv = cv2.cvtColor(src.rgb[src.label_ids == 7][None], cv2.COLOR_RGB2HSV_FULL)[0]
+        assert ref.road is not None
+        assert abs(ref.road[0] - np.median(hsv[:, 2])) <= ROAD_TONE_8BIT
+        assert abs(ref.road[1] - np.median(hsv[:, 1])) <= ROAD_TONE_8BIT
+        tones = look.instance_tones(src.rgb, src.instance_ids, None, 50, fallback=False)
+        ids = [i for i in np.unique(src.instance_ids) if i >= 1000 and (src.instance_ids == i).sum() >= 50]
+        assert tones and len(tones) <= len(ids)
+        for inst in ids:
+            t = look.tone(src.rgb, src.instance_ids == inst, fallback=False)
+            assert tones.get(int(inst)) == t

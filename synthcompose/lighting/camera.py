@@ -21,6 +21,41 @@ MAX_OBJECT_BLUR = 1.6
 
 _IMMERKAER = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)  # L2 norm 6
 
+#: noise and blur are pixel-level measures: they are taken at full resolution, but on a sample
+#: of the frame - a quarter of its SAMPLE_TILE x SAMPLE_TILE tiles, staggered over its rows and
+#: columns (scenes are layered by rows: sky, facades, road), each read with SAMPLE_MARGIN pixels
+#: of context (more than the filters reach: the Gaussian of sigma 1 at 4 pixels, the Sobel and
+#: the Immerkaer mask at 1, the dilation at 2), so that each pixel of a tile gets the values the
+#: whole frame would give it (the Canny edges' tracing aside); a quarter of the frame's pixels
+#: leaves the medians far more samples than they need
+SAMPLE_TILE, SAMPLE_MARGIN = 64, 8
+_FRAME_BORDER = 3  # pixels along the frame's border that never count (the filters' own border)
+
+
+def sample_tiles(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The tiles noise and blur are measured on (:data:`SAMPLE_TILE`), with their context,
+    stacked one above the other: (n * (T + 2M), T + 2M, 3) uint8, and a bool array of that
+    shape: the pixels that count (in the tile, in the frame). A small frame is used whole."""
+    H, W = rgb.shape[:2]
+    T, M = SAMPLE_TILE, SAMPLE_MARGIN
+    inside = np.zeros((H + 2 * M + T, W + 2 * M + T), bool)
+    inside[M + _FRAME_BORDER:M + H - _FRAME_BORDER, M + _FRAME_BORDER:M + W - _FRAME_BORDER] = True
+    if H < 4 * T or W < 4 * T:
+        return rgb, inside[M:M + H, M:M + W].copy()
+    # the frame reflected at its border as the filters would; T more at the far sides for the
+    # last, partial tiles (their pixels out of the frame do not count)
+    pad = cv2.copyMakeBorder(rgb, M, M + T, M, M + T, cv2.BORDER_REFLECT_101)
+    tiles, counts = [], []
+    for i, r0 in enumerate(range(0, H, T)):
+        for j, c0 in enumerate(range(0, W, T)):
+            if (2 * i + j) % 4 == 0:
+                window = (slice(r0, r0 + T + 2 * M), slice(c0, c0 + T + 2 * M))
+                tiles.append(pad[window])
+                count = np.zeros((T + 2 * M, T + 2 * M), bool)
+                count[M:M + T, M:M + T] = inside[window][M:M + T, M:M + T]
+                counts.append(count)
+    return np.concatenate(tiles), np.concatenate(counts)
+
 
 def _grouped_median(values: np.ndarray) -> float:
     """Median of non-negative integer-valued data, interpolated within its integer bin (a plain
@@ -33,22 +68,25 @@ def _grouped_median(values: np.ndarray) -> float:
     return float(k - 0.5 + (half - below) / max(counts[k], 1))
 
 
-def estimate_noise(rgb: np.ndarray) -> np.ndarray:
+def estimate_noise(rgb: np.ndarray, counted: np.ndarray | None = None) -> np.ndarray:
     """(3,) noise standard deviation of each channel, in 8-bit code values: robust MAD of a
     Laplacian-like high-pass (Immerkaer's mask, blind to planes) over the flat half of the
-    image, away from edges and clipped values."""
+    image, away from edges and clipped values. ``counted``: (H, W) bool, the pixels that count
+    (the others are context: :func:`sample_tiles`); None: all but the border."""
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
     smooth = cv2.GaussianBlur(grey, (0, 0), 1.0)
     grad = cv2.magnitude(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
-    lo, hi = np.quantile(grad[::4, ::4], [0.5, 0.8])
+    lo, hi = np.quantile(grad[::4, ::4] if counted is None else grad[counted][::16], [0.5, 0.8])
     flat = grad <= lo
     flat &= cv2.dilate((grad > hi).astype(np.uint8), np.ones((5, 5), np.uint8)) == 0
     channels = cv2.split(np.ascontiguousarray(rgb))
     flat &= (cv2.min(cv2.min(channels[0], channels[1]), channels[2]) > 4) & \
         (cv2.max(cv2.max(channels[0], channels[1]), channels[2]) < 251)
     flat[:2], flat[-2:], flat[:, :2], flat[:, -2:] = False, False, False, False
+    if counted is not None:
+        flat &= counted
     if flat.sum() < 500:
-        flat[2:-2, 2:-2] = True
+        flat[2:-2, 2:-2] = True if counted is None else counted[2:-2, 2:-2]
     out = np.empty(3)
     for c in range(3):
         # integer mask on 8-bit data: exact in 16 bits (|r| <= 16 * 255)
@@ -57,17 +95,20 @@ def estimate_noise(rgb: np.ndarray) -> np.ndarray:
     return out
 
 
-def estimate_blur(rgb: np.ndarray, reblur: float = 1.0) -> float:
+def estimate_blur(rgb: np.ndarray, reblur: float = 1.0, counted: np.ndarray | None = None) -> float:
     """Blur of the photo as the sigma (pixels) of an equivalent Gaussian, from its strong edges:
     re-blurring a step edge of blur s by ``reblur`` lowers its peak gradient by the factor
     sqrt(s^2 + reblur^2) / s (Zhuo & Sim's defocus estimate); median over edge pixels. An ideal
-    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`."""
+    edge box-filtered over the pixel measures :data:`RENDER_BLUR_SIGMA`. ``counted``: as for
+    :func:`estimate_noise`."""
     grey8 = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
     grey = grey8.astype(np.float32)
     re = cv2.GaussianBlur(grey, (0, 0), reblur)
 
     edges = cv2.Canny(grey8, 40, 100) > 0
     edges[:3], edges[-3:], edges[:, :3], edges[:, -3:] = False, False, False, False
+    if counted is not None:
+        edges &= counted
     if edges.sum() < 50:
         return float("nan")
 
@@ -101,8 +142,9 @@ class CameraMatch:
 
     @classmethod
     def measure(cls, rgb: np.ndarray, seed: int = 0) -> "CameraMatch":
-        noise = estimate_noise(rgb)
-        blur = estimate_blur(rgb)
+        sample, counted = sample_tiles(rgb)
+        noise = estimate_noise(sample, counted)
+        blur = estimate_blur(sample, counted=counted)
         extra = 0.0 if not math.isfinite(blur) else math.sqrt(max(blur ** 2 - RENDER_BLUR_SIGMA ** 2, 0.0))
         return cls(tuple(float(v) for v in noise), float(blur) if math.isfinite(blur) else 0.0,
                    float(min(extra, MAX_OBJECT_BLUR)), int(seed))
@@ -138,6 +180,8 @@ ROAD_ID = label_id("road")
 #: ratio varies from frame to frame with the cars parked there)
 ROAD_PRIOR = ((0.22, 0.28, 0.39, 0.57, 0.94, 1.48, 1.6), (0.98, 1.03, 1.08, 1.13, 1.18, 1.45, 1.47))
 ROAD_PRIOR_CLASSES = (26, 27, 28, 29)  # car, truck, bus, caravan
+#: the road's tone is taken on every ROAD_STRIDE-th row and column (single pixels, not averaged)
+ROAD_STRIDE = 2
 
 
 def _linear(v: float) -> float:
@@ -165,9 +209,14 @@ class ToneReference:
         """From the photo, its instance ids (None: no objects to refer to) and its labels (or the
         surfaces found without them: the road, for :data:`ROAD_PRIOR`)."""
         road = None
-        if label_ids is not None and (label_ids == ROAD_ID).sum() >= 2000:
-            px = cv2.cvtColor(rgb[label_ids == ROAD_ID][None], cv2.COLOR_RGB2HSV_FULL)[0]
-            road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
+        if label_ids is not None:
+            # medians over the road: every ROAD_STRIDE-th pixel of every ROAD_STRIDE-th row is
+            # plenty, and keeps each pixel's own noise (which the references' tones carry too)
+            sub = (slice(None, None, ROAD_STRIDE),) * 2
+            on_road = label_ids[sub] == ROAD_ID
+            if on_road.sum() * ROAD_STRIDE ** 2 >= 2000:
+                px = cv2.cvtColor(rgb[sub][on_road][None], cv2.COLOR_RGB2HSV_FULL)[0]
+                road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
         if instance_ids is None:
             return cls({}, road)
         from ..look import instance_tones
