@@ -84,6 +84,10 @@ def codec_cpu(root: Path, count: int) -> float:
 
 
 def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, **extra) -> Path:
+    """A manifest of one car per set (``objects``) over ``data``; the left view alone unless
+    ``extra`` says otherwise (the codec's figure counts the left view's files: eval_stereo.py
+    measures what the right view adds)."""
+    extra = {"render": {"right_view": False}} | extra
     path = folder / "bench.json"
     splits = sorted({i.split for i in find_image_sets(data)})
     path.write_text(json.dumps({
@@ -122,7 +126,7 @@ def run_batch(data: Path, workers: int, limit: int, keep: Path | None = None, **
         return result
 
 
-def stage_cpu(data: Path, count: int, objects: int = 1) -> tuple[dict[str, float], int]:
+def stage_cpu(data: Path, count: int, objects: int = 1, **extra) -> tuple[dict[str, float], int]:
     """CPU-seconds per image set of each stage, the stages one after the other in this process."""
     from synthcompose.manifest import load_manifest
     from synthcompose.pipeline import Pipeline
@@ -140,7 +144,7 @@ def stage_cpu(data: Path, count: int, objects: int = 1) -> tuple[dict[str, float
 
     modules = [m for name, m in sys.modules.items() if name.startswith("synthcompose.stages.")]
     with tempfile.TemporaryDirectory() as tmp:
-        manifest = load_manifest(manifest_for(data, Path(tmp) / "out", Path(tmp), objects))
+        manifest = load_manifest(manifest_for(data, Path(tmp) / "out", Path(tmp), objects, **extra))
         idents = find_image_sets(data)[:count]
         with Pipeline(manifest) as pipe:
             pipe.process(idents[0])  # warm-up: shaders, the model

@@ -41,10 +41,10 @@ def right_codec_cpu(data: Path, count: int) -> float:
 
 
 def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
-    on = run_batch(data, 1, count, keep=keep / name, objects_per_image=objects)
+    on = run_batch(data, 1, count, keep=keep / name, objects_per_image=objects, render={"right_view": True})
     off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False})
     per = lambda r: r["cpu_s"] / r["sets"]  # noqa: E731
-    stages, _ = stage_cpu(data, count, objects)
+    stages, _ = stage_cpu(data, count, objects, render={"right_view": True})
     print(f"\n== {name}: {on['sets']} image sets, {objects} objects each, {data}")
     print(f"CPU-s per set: right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
           f"the right view's render + compose (stage 'right', the stages one after the other) "
