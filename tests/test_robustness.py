@@ -46,7 +46,17 @@ def _camera_edit(edit):
 def _png(kind, make):
     def apply(root, ident):
         p = ident.path(root, kind)
-        cv2.imwrite(str(p), make())
+        p.parent.mkdir(parents=True, exist_ok=True)  # the right view: a folder of its own
+        assert cv2.imwrite(str(p), make())
+        return p
+    return apply
+
+
+def _bytes(kind, data: bytes):
+    def apply(root, ident):
+        p = ident.path(root, kind)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
         return p
     return apply
 
@@ -115,6 +125,8 @@ BREAKAGES = {
     "polygons of another size": (_json(_polygons, json.dumps({"imgWidth": W * 2, "imgHeight": H, "objects": []})),
                                  f"is for {W * 2}x{H}"),
     "3d boxes ignore a number": (_json(_boxes, json.dumps({"objects": [], "ignore": 3})), "'ignore' lists"),
+    "right photo of another size": (_png("right", lambda: np.zeros((H, W + 8, 3), np.uint8)), f"is {W + 8}x{H} but"),
+    "right photo not a png": (_bytes("right", b"GIF89a" + bytes(64)), "is not a PNG file"),
 }
 
 
