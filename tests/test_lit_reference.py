@@ -44,7 +44,7 @@ from synthcompose.camera import Camera
 from synthcompose.models import MeshPart, Model
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .tolerances import LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
+from .tolerances import HALF_STORAGE_ABS, HALF_STORAGE_REL, LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
 
 CAMERA = Camera(fx=200.0, fy=200.0, u0=96.0, v0=48.0, baseline=0.2, x=0.0, y=0.0, z=1.22, yaw=0.0, pitch=0.05,
                 roll=0.0, width=192, height=96)
@@ -266,8 +266,9 @@ def cast(cam: Camera, obj: RenderObject, light: Lighting) -> Scene:
 
 
 # ------------------------------------------------------------------ rendering
-def _render(gl, shading: str = "pixel", sun_visibility: float = 1.0, photo=None, sun_mask=None):
-    renderer = Renderer(gl, shading=shading)
+def _render(gl, shading: str = "pixel", sun_visibility: float = 1.0, photo=None, sun_mask=None,
+            precision: str = "full"):
+    renderer = Renderer(gl, shading=shading, precision=precision)  # full: the equation, not the storage
     obj = RenderObject(boards_model(), POSE, PLANE_ALBEDO, sun_visibility=sun_visibility)
     passes = renderer.render(CAMERA, [obj], LIGHT, photo=photo, sun_mask=sun_mask)
     out = {name: passes.read(name) for name in ("objc", "irpv", "ir", "alpha", "plane")}
@@ -372,3 +373,17 @@ def test_planes_take_their_albedo_from_the_photo(gl_clean):
             want = plane_colour(LIGHT, scale[where], vis, photo_linear=linear[where])
             err = _errors(out["irpv"][where], want)
             assert err.max() <= LIT_REFERENCE_LINEAR, _report(f"Irpv from the photo, {name}", err)
+
+
+@pytest.mark.parametrize("shading", ["pixel", "sample"])
+def test_half_float_storage_only_rounds(gl_clean, shading):
+    """The batch's renderer stores the lit pass's colours in half floats: the passes differ from
+    full floats' by their rounding alone (relative, per sample, averaged by the resolve); the
+    coverage and the plane's depth not at all."""
+    full, _ = _render(gl_clean, shading)
+    half, _ = _render(gl_clean, shading, precision="half")
+    for name in ("objc", "irpv", "ir"):
+        bound = HALF_STORAGE_REL * np.abs(full[name]) + HALF_STORAGE_ABS
+        assert (np.abs(half[name] - full[name]) <= bound).all(), name
+    for name in ("alpha", "plane"):
+        assert np.array_equal(half[name], full[name]), name

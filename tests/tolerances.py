@@ -16,6 +16,10 @@ COMPOSE_MAX_ERR_8BIT = 1  # compose shader vs NumPy, 8-bit levels (issue: <= 1/2
 #: float64 measures at most 8.5e-7 on llvmpipe; 1e-4 leaves room for a GPU's pow/normalize while the
 #: smallest change of a constant of the equation tried (shininess 512 -> 500) moves it by 5e-4
 LIT_REFERENCE_LINEAR = 1e-4
+#: half-float storage of the lit targets (render.shading.PRECISIONS): a sample loses at most one
+#: step, 2^-10 of its value (llvmpipe truncates); the resolve averages four of them
+HALF_STORAGE_REL = 2.0 ** -10
+HALF_STORAGE_ABS = 1e-7  # (subnormal halves near 0)
 #: metres of a caster's edge left out on both sides when the reference decides lit / shadowed:
 #: the sun map's 12-tap, 2-texel filter blurs an edge over about 5 cm there (measured: errors
 #: vanish beyond 0.06 m); twice that

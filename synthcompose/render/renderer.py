@@ -14,7 +14,7 @@ from ..gl import GLContext
 from ..models import Model
 from .gpu_model import GpuModel, GroundPlane
 from .lit import LitDraw, bind_inputs, environment, frame_uniforms
-from .shading import SHADING, FillPrograms, PerPixel, PerSample, device_shading
+from .shading import PRECISIONS, SHADING, FillPrograms, PerPixel, PerSample, device_shading
 from .shadows import ShadowMaps, light_matrices
 from .transforms import gl_mat4
 from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_camera, roi_for
@@ -33,14 +33,17 @@ def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl
 class Renderer:
     """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
 
-    def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto") -> None:
+    def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto", precision: str = "half") -> None:
         """``shading``: "sample" runs the lighting for every sample of the 4x multisampled lit
         pass; "pixel" once per pixel, at its centre, then fills the samples (fill.glsl) - on
         llvmpipe, which shades every sample, the lit pass takes about a third of the time, at
         the cost of parts thinner than a pixel (a window seal) showing in pieces; "auto": per
-        pixel on a software renderer (llvmpipe), per sample on a GPU."""
+        pixel on a software renderer (llvmpipe), per sample on a GPU. ``precision``: what the
+        multisampled lit targets store (:data:`~synthcompose.render.shading.PRECISIONS`)."""
         if shading not in SHADING:
             raise ValueError(f"shading must be one of {', '.join(SHADING)}, not {shading!r}")
+        if precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, not {precision!r}")
         self.gl = gl.activate()
         if shading == "auto":
             shading = device_shading(gl.renderer_name)
@@ -55,7 +58,8 @@ class Renderer:
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
         self.shadows = ShadowMaps(gl, shadow_size)
         self._lit = LitDraw(gl, GroundPlane(gl), self._gpu_model)
-        self._shading = PerSample(gl, self._lit) if fill is None else PerPixel(gl, fill, self._lit, self._gpu_model)
+        self._shading = PerSample(gl, self._lit, precision) if fill is None else \
+            PerPixel(gl, fill, self._lit, self._gpu_model, precision)
 
     def _gpu_model(self, model: Model) -> GpuModel:
         if model.key not in self._models:

@@ -29,11 +29,22 @@ def device_shading(renderer_name: str) -> str:
     return "pixel" if any(s in renderer_name.lower() for s in ("llvmpipe", "softpipe", "swrast")) else "sample"
 
 
-def multisampled(gl: GLContext, size: tuple[int, int]):
+#: what the lit pass's multisampled targets store: "half" (default) keeps the colours (Irpv, the
+#: object's colour) and the coverage in half floats (11 significant bits: one step is at most
+#: 1/1024 of a value, a fifth of an 8-bit step or less once in sRGB; coverage in quarters
+#: exactly) and the depths (the object's, the plane's) in full floats; "full" everything in full
+#: floats. At 208 bytes per pixel in full floats these targets were the largest part of a batch's
+#: peak memory (a car close by: 2048 x 721 pixels, 300 MB); half takes 136
+PRECISIONS = ("half", "full")
+
+
+def multisampled(gl: GLContext, size: tuple[int, int], precision: str = "half"):
     """The lit pass's 4x multisampled targets (irpv, alpha, odepth, plane, objc: lit.glsl's
-    outputs 0-4), their depth, and a framebuffer of them."""
+    outputs 0-4), their depth, and a framebuffer of them (:data:`PRECISIONS`)."""
     ctx = gl.ctx
-    ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype="f4")) for c in (4, 1, 1, 2, 4)]
+    colour = "f2" if precision == "half" else "f4"
+    ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype=dtype))
+          for c, dtype in ((4, colour), (1, colour), (1, "f4"), (2, "f4"), (4, colour))]
     ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
     return ms, ms_depth, gl.own(ctx.framebuffer(ms, ms_depth))
 
@@ -41,14 +52,14 @@ def multisampled(gl: GLContext, size: tuple[int, int]):
 class PerSample:
     """``shading="sample"``: the lit programs draw straight into the multisampled targets."""
 
-    def __init__(self, gl: GLContext, lit: LitDraw) -> None:
-        self.gl, self.lit = gl, lit
+    def __init__(self, gl: GLContext, lit: LitDraw, precision: str = "half") -> None:
+        self.gl, self.lit, self.precision = gl, lit, precision
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
         """Irpv's multisampled targets drawn (:func:`multisampled`), to resolve (``view`` and
         ``proj`` unused: the lit programs' uniforms carry them)."""
-        ms, ms_depth, ms_fbo = multisampled(self.gl, size)
+        ms, ms_depth, ms_fbo = multisampled(self.gl, size, self.precision)
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.lit.draw(objects, lighting, objects_too=True)
@@ -86,8 +97,8 @@ class PerPixel:
     (:attr:`FillPrograms.objects`), the planes theirs with :attr:`FillPrograms.planes`."""
 
     def __init__(self, gl: GLContext, fill: FillPrograms, lit: LitDraw,
-                 gpu_model: Callable[[Model], GpuModel]) -> None:
-        self.gl, self.fill, self.lit = gl, fill, lit
+                 gpu_model: Callable[[Model], GpuModel], precision: str = "half") -> None:
+        self.gl, self.fill, self.lit, self.precision = gl, fill, lit, precision
         self._gpu_model = gpu_model
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
@@ -127,7 +138,7 @@ class PerPixel:
         ctx.enable(moderngl.DEPTH_TEST)
         gl.free(others_fbo)
         gl.wait()  # the freed targets are released once drawn: before the multisampled ones exist
-        ms, ms_depth, ms_fbo = multisampled(gl, size)
+        ms, ms_depth, ms_fbo = multisampled(gl, size, self.precision)
         fill, fill_plane = self.fill.objects, self.fill.planes
         for prog in (fill, fill_plane):  # (the plane variant's texture: _fill_planes)
             prog["u_view"].write(gl_mat4(view))
