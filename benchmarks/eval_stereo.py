@@ -7,7 +7,9 @@
   inserted objects' visible pixels, the share the matcher matched, the share of those within
   1 px of the written disparity, the same over the pixels whose window has the texture to
   measure a disparity, and the same figures for the frame's own cars and people against the
-  input disparity; elsewhere, the share matched alike on the augmented and the input pair.
+  input disparity; without a matcher, the mean difference between the left photo and the right
+  one read at the written disparity, and 0.5 px off it; elsewhere, the share matched alike on the
+  augmented and the input pair.
 
     python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--real /path/to/cityscapes] [--keep DIR]
 
@@ -51,9 +53,11 @@ def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
           f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}; "
           f"the right photo's PNG read and written {right_codec_cpu(data, count):.3f}")
     cols = ("object_pixels", "matched", "within_1px", "matched_measurable", "within_1px_measurable",
-            "real_within_1px", "real_within_1px_measurable", "elsewhere_same", "right_changed")
+            "real_within_1px", "real_within_1px_measurable", "residual_at_written", "residual_off_half_px",
+            "elsewhere_same", "right_changed")
     print(f"{'image set':<42}" + "".join(f"{c:>16}" for c in ("objects px", "matched", "<=1px", "measurable",
                                                                "<=1px (meas.)", "own <=1px", "own (meas.)",
+                                                               "resid. at d", "resid. d+-0.5",
                                                                "elsewhere same", "right changed")))
     pooled = {"m": 0, "w": 0.0, "mm": 0, "wm": 0.0}
     for ident in find_image_sets(data)[:count]:

@@ -62,6 +62,8 @@ class PairCheck:
     real_matched: int  # the frame's own cars and people (labels): matched pixels
     real_within_1px: float  # of those, within 1 px of the input disparity (the same matcher)
     real_within_1px_measurable: float
+    residual_at_written: float  # mean |left - right at u - written disparity| on the objects, 8-bit levels
+    residual_off_half_px: float  # the same with the disparity 0.5 px off (the mean of both signs)
     elsewhere_pixels: int  # pixels whose matching windows saw no change
     elsewhere_same: float  # share of those (matched on both pairs) with the same disparity within 1 px
     right_changed: int  # pixels of the right photo that changed
@@ -88,6 +90,19 @@ def _agreement(d: np.ndarray, truth: np.ndarray, mask: np.ndarray, texture: np.n
     both = found & texture
     share_m = float((err[both] <= 1.0).mean()) if both.any() else float("nan")
     return int(found.sum()), share, int(both.sum()), share_m
+
+
+def photo_residual(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, mask: np.ndarray,
+                   shift: float = 0.0) -> float:
+    """Mean |left - right| (8-bit levels, all channels) over ``mask`` with the right photo read
+    at u - disparity + shift (bilinear): no matcher, the pair's agreement with the disparity
+    itself. Smallest at shift 0 when the disparity is the one the pixels have between the views."""
+    h, w = disparity.shape
+    xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+    mapx = (xs - np.nan_to_num(disparity, nan=0.0) + np.float32(shift)).astype(np.float32)
+    warped = cv2.remap(right.astype(np.float32), mapx, ys, cv2.INTER_LINEAR)
+    ok = mask & np.isfinite(disparity) & (mapx >= 0)
+    return float(np.abs(warped - left.astype(np.float32))[ok].mean()) if ok.any() else float("nan")
 
 
 def _changed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -121,6 +136,13 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
         disp_in = np.where(raw_in > 0, decode_disparity(raw_in), np.nan)
         real_matched, real_within, _, real_within_m = _agreement(d_in, disp_in, own & ~objects, measurable(left_in))
 
+    # the pair against the written disparity, no matcher: inside the objects (away from their
+    # outline, where the background's own disparity takes over)
+    inner = cv2.erode(objects.astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
+    at = photo_residual(left_out, right_out, written, inner)
+    off = 0.5 * (photo_residual(left_out, right_out, written, inner, 0.5) +
+                 photo_residual(left_out, right_out, written, inner, -0.5))
+
     # elsewhere: the left window unchanged, and the right window at the input pair's match
     kernel = np.ones((BLOCK, BLOCK), np.uint8)
     left_touch = cv2.dilate(_changed(left_in, left_out).astype(np.uint8), kernel) > 0
@@ -134,5 +156,5 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     keep[rows[inside], cols[inside]] = ~right_touch[rows[inside], target[inside]]
     same = np.abs(d_out[keep] - d_in[keep]) <= 1.0
     return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, real_matched,
-                     real_within, real_within_m, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
+                     real_within, real_within_m, at, off, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
                      int(right_changed.sum()))

@@ -33,3 +33,4 @@ def test_real_pairs_stay_stereo_pairs(tmp_path):
     for c in checks:
         assert c.within_1px_measurable >= PAIR_WITHIN_1PX_MEASURABLE_MIN, c
         assert c.elsewhere_same >= PAIR_ELSEWHERE_SAME_MIN, c
+        assert c.residual_at_written < c.residual_off_half_px, c

@@ -161,6 +161,7 @@ def test_a_stereo_matcher_finds_the_written_disparity_on_the_augmented_pair(pair
     assert within / measured >= PAIR_WITHIN_1PX_MEASURABLE_MIN, checks
     for c in checks:
         assert c.elsewhere_same >= PAIR_ELSEWHERE_SAME_MIN, c
+        assert c.residual_at_written < c.residual_off_half_px, c  # the written disparity is the pair's
 
 
 def test_an_input_without_a_right_photo_gives_the_left_view_alone(tmp_path):
