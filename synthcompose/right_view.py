@@ -30,15 +30,6 @@ from .geometry import nearest_in_row
 _STEPS = 256
 
 
-def right_columns(depth: np.ndarray, camera: Camera, u0: int) -> np.ndarray:
-    """(h, w) float64: the right-image column of each pixel of ``depth`` (a block of the left
-    image whose first column is ``u0``); infinite depth stays in its column."""
-    d = np.zeros(depth.shape, np.float64)
-    finite = np.isfinite(depth) & (depth > 0)
-    d[finite] = camera.fx * camera.baseline / depth[finite]
-    return np.arange(u0, u0 + depth.shape[1], dtype=np.float64)[None, :] - d
-
-
 def carry_to_right(depth: np.ndarray, camera: Camera, rows: slice, cols: slice,
                    layers: Mapping[str, np.ndarray], keep: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The left view's ``depth`` (H, W float32, inf where unknown) and ``layers`` (each (H, W),
@@ -54,8 +45,9 @@ def carry_to_right(depth: np.ndarray, camera: Camera, rows: slice, cols: slice,
         return out
     src = depth[r0:r1, c0:]  # disparity >= 0: a right pixel is seen by a left one at or right of it
     h, w = src.shape
-    target = np.rint(right_columns(src, camera, c0)).astype(np.int64) - c0  # column within the block
+    # disparity, 0 at infinite depth; the right column within the block
     d = np.where(np.isfinite(src) & (src > 0), camera.fx * camera.baseline / np.maximum(src, 1e-6), 0.0)
+    target = np.rint(np.arange(w, dtype=np.float64)[None, :] - d).astype(np.int64)
     ok = (target >= 0) & (target < c1 - c0)
     # nearest surface wins: the largest disparity, then the source's flat index
     flat = np.arange(h * w, dtype=np.int64).reshape(h, w)
@@ -77,10 +69,10 @@ def carry_to_right(depth: np.ndarray, camera: Camera, rows: slice, cols: slice,
     neither = (left < 0) & (right >= cw)
     filled = np.where(reached, source, source[rows_, take])
     out["depth"][r0:r1, c0:c1] = np.where(neither, np.inf, src_depth[filled])
+    stay = None if keep is None else keep[r0:r1, c0:c1]
     for name, layer in layers.items():
         block = layer[r0:r1, c0:].ravel()[filled]
-        if keep is not None:
-            stay = keep[r0:r1, c0:c1]
+        if stay is not None:
             block = np.where(stay, layer[r0:r1, c0:c1], block)
         out[name][r0:r1, c0:c1] = np.where(neither, 0, block)
     return out
