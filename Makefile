@@ -34,7 +34,7 @@ sample: system venv $(SAMPLE)/.complete ## generate the bundled sample image set
 
 demo: system venv sample ## run the main job on the bundled sample
 	$(VENV)/bin/synthcompose batch assets/demo/manifest.json
-	@echo "results: out/demo (images under leftImg8bit/, gtFine/, disparity/; records under synthcompose/)"
+	@echo "results: out/demo (images under leftImg8bit/, rightImg8bit/, gtFine/, disparity/; records under synthcompose/)"
 
 test: system venv ## run the test suite
 	@bash scripts/system-deps.sh --test
