@@ -205,8 +205,45 @@ def read_json(path: str | Path) -> Any:
         raise InputError(path, f"is not valid JSON ({exc})") from None
 
 
+_COMPACT = json.JSONEncoder(allow_nan=False, separators=(", ", ": "))
+
+
+def _flat(value: Any) -> bool:
+    """A list of numbers, or of lists of numbers (a polygon, a matrix, a box): one line."""
+    return all(isinstance(v, (int, float)) or (isinstance(v, list) and
+               all(isinstance(x, (int, float)) for x in v)) for v in value)
+
+
+def _layout(obj: Any, indent: str, out: list[str]) -> None:
+    """``obj`` as JSON into ``out``: objects and other lists indented by two spaces a level, as
+    ``json.dumps(indent=2)`` lays them out, but lists of numbers (and of number pairs) on one
+    line, encoded by the C encoder: a frame's polygons take a tenth of the CPU, and a tenth of
+    the lines."""
+    if isinstance(obj, dict) and obj:
+        inner = indent + "  "
+        out.append("{")
+        for k, (key, value) in enumerate(obj.items()):
+            name = key if isinstance(key, str) else _COMPACT.encode(key).strip('"')  # as json.dumps names keys
+            out.append(("," if k else "") + "\n" + inner + _COMPACT.encode(name) + ": ")
+            _layout(value, inner, out)
+        out.append("\n" + indent + "}")
+    elif isinstance(obj, (list, tuple)) and obj and not _flat(obj):
+        inner = indent + "  "
+        out.append("[")
+        for k, value in enumerate(obj):
+            out.append(("," if k else "") + "\n" + inner)
+            _layout(value, inner, out)
+        out.append("\n" + indent + "]")
+    else:
+        out.append(_COMPACT.encode(obj))
+
+
 def dumps_json(obj: Any) -> bytes:
-    return (json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n").encode("utf-8")
+    """UTF-8 JSON of ``obj`` (NaN and Infinity refused), indented, with lists of numbers on one line."""
+    out: list[str] = []
+    _layout(obj, "", out)
+    out.append("\n")
+    return "".join(out).encode("utf-8")
 
 
 def write_json(path: str | Path, obj: Any) -> None:

@@ -14,7 +14,7 @@ import cv2
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.fileio import write_bytes_atomic
+from synthcompose.fileio import dumps_json, write_bytes_atomic
 from synthcompose.synthetic import make_sample
 from synthcompose.writer import output_paths
 
@@ -290,3 +290,20 @@ def test_sigterm_with_workers_prints_no_traceback(tmp_path):
     _, err = proc.communicate(timeout=60)
     time.sleep(1.0)  # the workers notice their parent is gone
     assert "Traceback" not in err, err[-3000:]
+
+
+@pytest.mark.parametrize("doc", [
+    {"imgHeight": 4, "imgWidth": 8, "objects": [{"label": "car", "polygon": [[0, 0], [4.5, 0], [4, 3]]},
+                                                {"label": "road", "polygon": []}]},
+    {"a": [1, [2, [3]]], "b": {}, "c": [], "d": "é\"\n", "e": None, True: False, 3: [{"x": 1}], 2.5: (1, 2)},
+    [], {}, 7, "text", [[1, 2], [3, [4]]],
+])
+def test_json_outputs_load_as_written_and_keep_number_lists_on_one_line(doc):
+    text = dumps_json(doc).decode("utf-8")
+    assert json.loads(text) == json.loads(json.dumps(doc))
+    assert text.endswith("\n")
+    if isinstance(doc, dict) and "objects" in doc:
+        assert '"polygon": [[0, 0], [4.5, 0], [4, 3]]' in text
+        assert text.startswith('{\n  "imgHeight": 4,')
+    with pytest.raises(ValueError):
+        dumps_json({"x": [float("nan")]})
