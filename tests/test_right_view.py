@@ -177,3 +177,29 @@ def test_right_view_switch_must_be_a_boolean(tmp_path, capsys):
     manifest = write_manifest(tmp_path / "m.json", tmp_path, tmp_path / "out", render={"right_view": "yes"})
     assert main(["batch", str(manifest)]) != 0
     assert "render/right_view" in capsys.readouterr().err
+
+
+def test_the_right_render_reuses_the_left_shadow_maps_with_the_same_pixels(gl_clean):
+    """The shadow maps depend on the objects and the light, not on the camera: the right view
+    draws them once with the left view and gets what a fresh renderer draws."""
+    from synthcompose.models import load_model
+    from synthcompose.placement import pose_matrix
+    from synthcompose.render import Lighting, RenderObject, Renderer
+
+    from .test_geometry import make_camera
+
+    cam = make_camera()
+    obj = RenderObject(load_model("builtin:box", (("length", 2.0),)),
+                       pose_matrix(np.array([12.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0]), 0.3), (0.2, 0.2, 0.2))
+    light = Lighting.daylight(40.0, 120.0, 0.6)
+    both = Renderer(gl_clean)
+    both.release(both.render(cam, [obj], light))
+    drawn = both.shadows._drawn
+    right = both.render(cam.right_camera(), [obj], light)
+    assert both.shadows._drawn is drawn  # not drawn again
+    fresh = Renderer(gl_clean)
+    alone = fresh.render(cam.right_camera(), [obj], light)
+    for name in ("irpv", "ir", "alpha", "plane"):
+        assert np.array_equal(right.read(name), alone.read(name)), name
+    both.release(right)
+    fresh.release(alone)

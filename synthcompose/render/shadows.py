@@ -50,6 +50,7 @@ class ShadowMaps:
             tex.repeat_x = tex.repeat_y = False
             fbo = gl.own(ctx.framebuffer(depth_attachment=tex))
             self.maps.append((tex, fbo))
+        self._drawn: bytes | None = None  # what the maps hold (see draw)
 
     @property
     def textures(self) -> tuple[moderngl.Texture, ...]:
@@ -58,7 +59,14 @@ class ShadowMaps:
 
     def draw(self, objects: Sequence[RenderObject], mats, gpu_model: Callable[[Model], GpuModel]) -> None:
         """Draw ``objects`` (their models uploaded by ``gpu_model``) into each map with the depth
-        program, seen through ``mats`` (sun, sky, under: :func:`light_matrices`)."""
+        program, seen through ``mats`` (sun, sky, under: :func:`light_matrices`). The maps do not
+        depend on the camera: drawn again only when the objects or the light changed (the right
+        view of a stereo pair uses the left view's)."""
+        drawn = b"".join([obj.model.key.encode() + np.asarray(obj.vehicle_from_object, np.float64).tobytes()
+                          for obj in objects] + [np.asarray(m, np.float64).tobytes() for m in mats])
+        if drawn == self._drawn:
+            return
+        self._drawn = drawn
         ctx = self.gl.ctx
         prog = self.gl.program("depth")
         for (tex, fbo), light in zip(self.maps, mats):
