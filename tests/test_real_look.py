@@ -4,11 +4,9 @@ tone of the frame's own cars and stand on its ground (benchmarks/eval_look.py gi
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from synthcompose import look
 from synthcompose.cli import main
@@ -18,10 +16,10 @@ from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import estimate_lighting
 from synthcompose.surfaces import frame_for
 
+from .real_root import REAL, needs_real
 from .tolerances import CONTACT_DEPTH_REL, REAL_TONE_IN_RANGE_MIN
 
-REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
-pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a labelled Cityscapes root) not set")
+pytestmark = needs_real
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 GROUND = (6, 7, 8, 9, 10, 22)
 

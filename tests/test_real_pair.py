@@ -4,7 +4,6 @@ disparity on the inserted objects, and elsewhere what it found on the input pair
 a temporary folder, never into the repository."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
@@ -13,11 +12,11 @@ from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets
 from synthcompose.stereo_check import check_pair
 
+from .real_root import REAL, needs_real
 from .test_batch import write_manifest
 from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN
 
-REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
-pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a Cityscapes root) not set")
+pytestmark = needs_real
 
 
 def test_real_pairs_stay_stereo_pairs(tmp_path):

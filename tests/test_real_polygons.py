@@ -4,20 +4,18 @@ without it, as in CI): the frame's own labelIds and instanceIds, described by
 made them). Outputs are never written into the repository."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.polygons import frame_polygons
 
+from .real_root import REAL, needs_real
 from .test_annotations import _drawn_back
 from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
-REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
-pytestmark = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a labelled Cityscapes root) not set")
+pytestmark = needs_real
 
 
 def test_real_frames_labels_draw_back_from_their_polygons():

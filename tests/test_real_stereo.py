@@ -6,7 +6,6 @@ px coding); tests on real Cityscapes frames read their root from SYNTHCOMPOSE_RE
 are skipped without it (CI has no real data)."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import cv2
@@ -20,6 +19,7 @@ from synthcompose.placement import PlacementRules, check_pose, frame_noise, plac
 from synthcompose.placement.noise import SIGMA_MIN, StereoNoise, measure_sigma
 from synthcompose.surfaces import find_surfaces, frame_for
 
+from .real_root import REAL, needs_real
 from .test_placement import SIZES
 from .tolerances import (NOISE_SIGMA_MEASURE_REL, NOISY_SCENE_SIGMA_D_PX, REAL_PLACED_MIN, REAL_ROAD_PRECISION_MIN,
                          REAL_SIDEWALK_ROAD_MAX, REAL_SIDEWALK_WALKABLE_MIN, ROAD_FOUND_PRECISION_MIN,
@@ -117,8 +117,6 @@ def test_surfaces_are_deterministic():
 
 
 # ------------------------------------------------------------------ real Cityscapes frames
-REAL = os.environ.get("SYNTHCOMPOSE_REAL_ROOT")
-needs_real = pytest.mark.skipif(not REAL, reason="SYNTHCOMPOSE_REAL_ROOT (a labelled Cityscapes root) not set")
 
 
 @needs_real
