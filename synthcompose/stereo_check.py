@@ -83,13 +83,15 @@ def measurable(rgb: np.ndarray) -> np.ndarray:
 
 
 def _agreement(d: np.ndarray, truth: np.ndarray, mask: np.ndarray, texture: np.ndarray) -> tuple:
-    """(found, within 1 px of the found, measurable found, within 1 px of those)."""
+    """(found, within 1 px of the found, measurable found, within 1 px of those, median error of
+    the found)."""
     found = mask & np.isfinite(d) & np.isfinite(truth)
     err = np.abs(d - truth)
     share = float((err[found] <= 1.0).mean()) if found.any() else float("nan")
+    median = float(np.median(err[found])) if found.any() else float("nan")
     both = found & texture
     share_m = float((err[both] <= 1.0).mean()) if both.any() else float("nan")
-    return int(found.sum()), share, int(both.sum()), share_m
+    return int(found.sum()), share, int(both.sum()), share_m, median
 
 
 def photo_residual(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, mask: np.ndarray,
@@ -97,12 +99,17 @@ def photo_residual(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, m
     """Mean |left - right| (8-bit levels, all channels) over ``mask`` with the right photo read
     at u - disparity + shift (bilinear): no matcher, the pair's agreement with the disparity
     itself. Smallest at shift 0 when the disparity is the one the pixels have between the views."""
-    h, w = disparity.shape
-    xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-    mapx = (xs - np.nan_to_num(disparity, nan=0.0) + np.float32(shift)).astype(np.float32)
-    warped = cv2.remap(right.astype(np.float32), mapx, ys, cv2.INTER_LINEAR)
-    ok = mask & np.isfinite(disparity) & (mapx >= 0)
-    return float(np.abs(warped - left.astype(np.float32))[ok].mean()) if ok.any() else float("nan")
+    rows, cols = np.nonzero(mask)
+    if not len(rows):
+        return float("nan")
+    box = slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1)  # the mask's box alone
+    xs, ys = np.meshgrid(np.arange(box[1].start, box[1].stop, dtype=np.float32),
+                         np.arange(box[0].start, box[0].stop, dtype=np.float32))
+    d = disparity[box]
+    mapx = (xs - np.nan_to_num(d, nan=0.0) + np.float32(shift)).astype(np.float32)
+    warped = cv2.remap(right.astype(np.float32), mapx, ys, cv2.INTER_LINEAR)  # maps index the whole photo
+    ok = mask[box] & np.isfinite(d) & (mapx >= 0)
+    return float(np.abs(warped - left[box].astype(np.float32))[ok].mean()) if ok.any() else float("nan")
 
 
 def _changed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -124,9 +131,7 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     d_out = sgbm(left_out, right_out)
     d_in = sgbm(left_in, right_in)
     texture = measurable(left_out)
-    matched, within, matched_m, within_m = _agreement(d_out, written, objects, texture)
-    err = np.abs(d_out - written)[objects & np.isfinite(d_out) & np.isfinite(written)]
-    median = float(np.median(err)) if err.size else float("nan")
+    matched, within, matched_m, within_m, median = _agreement(d_out, written, objects, texture)
     # the same matcher on the frame's own cars and people, against the input's disparity
     real_matched, real_within, real_within_m = 0, float("nan"), float("nan")
     if ident.path(inputs, "labelIds").exists():
@@ -134,7 +139,7 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
         own = cv2.erode(np.isin(labels, label_ids("car", "person")).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         raw_in = read_png(ident.path(inputs, "disparity"), "gray16")
         disp_in = np.where(raw_in > 0, decode_disparity(raw_in), np.nan)
-        real_matched, real_within, _, real_within_m = _agreement(d_in, disp_in, own & ~objects, measurable(left_in))
+        real_matched, real_within, _, real_within_m, _ = _agreement(d_in, disp_in, own & ~objects, measurable(left_in))
 
     # the pair against the written disparity, no matcher: inside the objects (away from their
     # outline, where the background's own disparity takes over)
