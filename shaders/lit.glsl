@@ -138,21 +138,30 @@ float object_occlusion(vec3 p, float height) {
 
 // Radiance reflected towards the camera from direction r at p: the photo where the ray lands on
 // a simple proxy of the scene (the ground plane below, a wall 30 m away otherwise), projected
-// into the full frame and blurred with the roughness (mip level); the sky / ground colours of
-// the light where it leaves the frame (behind the camera, above the image).
+// into the full frame and blurred with the roughness (mip level). Where the ray leaves the frame
+// (behind the camera, above the image, to the sides) the street is taken to look like the part
+// of it in the frame: the point is folded back into the frame's angles (a mirror at each edge),
+// and the steepest rays up see the open sky. So paint and glass reflect textured surroundings,
+// as real ones do, not one flat colour.
 vec3 environment(vec3 p, vec3 r, float roughness) {
     vec3 fallback = mix(u_ground_rgb, u_sky_rgb, smoothstep(-0.2, 0.2, r.z));
     if (!u_has_env) return fallback;
     float t = 30.0;
     if (r.z < -0.02) t = min((v_ground_z - p.z) / r.z, 30.0);
     vec4 o = u_env_view * vec4(p + max(t, 0.0) * r, 1.0);
-    if (o.z < 0.5) return fallback;
-    vec2 uv = vec2(u_env_k.x * o.x / o.z + u_env_k.z, u_env_k.y * o.y / o.z + u_env_k.w);
-    vec2 edge = min(uv, 1.0 - uv);
-    float inside = smoothstep(0.0, 0.06, min(edge.x, edge.y));
-    if (inside <= 0.0) return fallback;
+    if (dot(o.xyz, o.xyz) < 0.25) return fallback;
+    // the frame's angular extent along its x and y axes; a point outside it (behind the camera,
+    // above the image, to the sides) is folded back into it, angles kept: the street behind and
+    // above the frame looks like the street in it
+    vec2 lo = atan(-u_env_k.zw / u_env_k.xy);
+    vec2 hi = atan((1.0 - u_env_k.zw) / u_env_k.xy);
+    vec2 a = vec2(atan(o.x, abs(o.z)), atan(o.y, abs(o.z)));
+    vec2 x = (a - lo) / (hi - lo);
+    a = lo + (hi - lo) * (1.0 - abs(mod(x, 2.0) - 1.0));
+    vec2 uv = u_env_k.xy * tan(a) + u_env_k.zw;
     vec3 photo = textureLod(u_env, uv, clamp(roughness * u_env_lods, 0.0, u_env_lods)).rgb;
-    return mix(fallback, photo, inside);
+    // steeply upwards: the open sky between the roofs
+    return mix(photo, u_sky_rgb, smoothstep(0.75, 1.0, r.z));
 }
 
 // The shading normal from the normal map, in the tangent frame (T, B, N) of the side seen:
