@@ -23,6 +23,7 @@ import numpy as np
 
 from .colour import LUM
 from .models import Model
+from .plates import draw_registration
 
 #: (name, share, linear albedo) of car paints
 PAINTS = (
@@ -65,14 +66,17 @@ class Appearance:
     #: colourfulness; the camera look places the object's tone there among the frame's own
     #: objects of its class (lighting.camera.object_tones)
     rank: tuple[float, float] = (0.5, 0.5)
+    #: the registration on its number plates (a vehicle whose model has them, :mod:`.plates`)
+    plate: str | None = None
 
     def to_dict(self) -> dict:
-        kind = "paint" if len(self.names) == 1 else "clothes"
+        out = {} if self.plate is None else {"plate": self.plate}
         if not self.names:
-            return {}
+            return out
+        kind = "paint" if len(self.names) == 1 else "clothes"
         return {kind: self.names[0] if kind == "paint" else list(self.names),
                 "albedo_linear": [[round(float(c), 4) for c in rgb] for _, rgb in self.recolour],
-                "rank": [round(v, 3) for v in self.rank]}
+                "rank": [round(v, 3) for v in self.rank]} | out
 
 
 def _materials(model: Model) -> list[tuple[tuple[float, ...], float, float, float, bool]]:
@@ -129,10 +133,11 @@ def appearance_rng(seed: int, image_set: str, index: int) -> np.random.Generator
 
 
 def draw_appearance(model: Model, class_name: str, rng: np.random.Generator) -> Appearance:
-    """Colours for one object of ``class_name`` (none for a class or model without any)."""
+    """Colours for one object of ``class_name`` (none for a class or model without any), and the
+    registration on its plates (a vehicle whose model has plates), drawn after the colours."""
     keys = recolourable(model, class_name)
     if not keys:
-        return Appearance()
+        return Appearance(plate=_plate(model, class_name, rng))
     palette = PAINTS if class_name in VEHICLES else CLOTHES
     shares = np.array([p[1] for p in palette])
     pairs, names = [], []
@@ -142,7 +147,12 @@ def draw_appearance(model: Model, class_name: str, rng: np.random.Generator) -> 
         rgb = np.clip(np.asarray(rgb) * float(rng.uniform(0.85, 1.15)), 0.0, 0.9)
         pairs.append((key, tuple(float(c) for c in rgb)))
         names.append(name)
-    return Appearance(tuple(pairs), tuple(names), palette_rank(palette, names[0]))
+    return Appearance(tuple(pairs), tuple(names), palette_rank(palette, names[0]), _plate(model, class_name, rng))
+
+
+def _plate(model: Model, class_name: str, rng: np.random.Generator) -> str | None:
+    """A registration for a vehicle whose model has number plates, else None."""
+    return draw_registration(rng) if class_name in VEHICLES and any(p.plate for p in model.parts) else None
 
 
 def _chroma(rgb) -> float:

@@ -46,11 +46,11 @@ def test_palettes_are_distributions_led_by_the_common_paints():
     assert palette_rank(PAINTS, "red")[1] > palette_rank(PAINTS, "grey")[1]
 
 
-def test_the_car_paint_and_the_clothes_are_found_and_the_plate_is_blank():
+def test_the_car_paint_and_the_clothes_are_found_and_the_models_plate_text_is_not_drawn():
     car = car_model()
     paint = recolourable(car, "car")
     assert len(paint) == 1 and paint[0][0] > 5 * max(paint[0][1], paint[0][2])  # the red body paint
-    assert all(p.texture is None for p in car.parts)  # the "OpenMaterial" plate texture is gone
+    assert all(p.texture is None for p in car.parts)  # the "OpenMaterial" plate texture is gone (test_plates.py)
     person = load_model(PERSON, (("height", 1.75),), "+y", "+x")
     clothes = recolourable(person, "person")
     assert 2 <= len(clothes) <= 3

@@ -7,6 +7,7 @@ import functools
 import io
 import json
 import struct
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -190,8 +191,8 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
         tan = None
         if p.tangents is not None:  # a rotation: still unit and orthogonal to the normals
             tan = np.concatenate([p.tangents[:, :3] @ rot.T, p.tangents[:, 3:]], axis=1).astype(np.float32)
-        out.append(MeshPart(((q - offset) * scale).astype(np.float32), nrm.astype(np.float32), p.uvs,
-                            p.colors, p.material, p.indices, p.texture, tan, p.normal_texture, p.normal_scale))
+        out.append(replace(p, positions=((q - offset) * scale).astype(np.float32), normals=nrm.astype(np.float32),
+                           tangents=tan))
     return Model(key, tuple(out), tuple(float(e * scale) for e in ext))
 
 

@@ -21,6 +21,8 @@ GLASS_RGB = np.array([0.015, 0.02, 0.025], np.float32)
 
 #: textured materials with such names are drawn blank (:data:`NEUTRAL_PLATE`, linear RGBA)
 _NEUTRAL = re.compile(r"licen[cs]e|plate|decal|logo|badge", re.IGNORECASE)
+#: ... and those of them that are number plates carry each object's own plate (:mod:`..plates`)
+_PLATE = re.compile(r"licen[cs]e|plate", re.IGNORECASE)
 NEUTRAL_PLATE = (0.55, 0.55, 0.52, 1.0)
 #: the name a glTF's TANGENT attribute is handed to trimesh under (:mod:`.load`; trimesh keeps
 #: attributes whose name starts with "_")
@@ -45,6 +47,8 @@ class MeshPart:
     normal_texture : (H, W, 4) uint8 tangent-space normal map (linear, glTF: +x along the
                 tangent, +y along the bitangent) or None; row 0 = v = 0
     normal_scale   : glTF normalTexture.scale, multiplies the map's x and y
+    plate     : (W, H) px of the model's own plate texture when this part is a number plate
+                (its texture is dropped, its UVs kept): each object's plate is drawn on it
     """
 
     positions: np.ndarray
@@ -57,6 +61,7 @@ class MeshPart:
     tangents: np.ndarray | None = None
     normal_texture: np.ndarray | None = None
     normal_scale: float = 1.0
+    plate: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,6 +163,7 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
     metal_rough = np.tile(np.array([0.0, 0.6], np.float32), (n, 1))
     texture = None
     normal_texture, normal_scale = None, 1.0
+    plate = None
     visual = mesh.visual
     if isinstance(visual, trimesh.visual.texture.TextureVisuals):
         mat = visual.material
@@ -176,7 +182,9 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
                 texture = _as_rgba_u8(mat.baseColorTexture)
             if texture is not None and _NEUTRAL.search(mat.name or ""):
                 # a plate, a decal, a logo: its text or brand would be the same on every object
-                # (a model learns it); drawn as a blank plate instead
+                # (a model learns it); drawn blank instead, a number plate with each object's own
+                if _PLATE.search(mat.name or "") and visual.uv is not None and len(visual.uv) == n:
+                    plate = (int(texture.shape[1]), int(texture.shape[0]))
                 texture, colors[:] = None, NEUTRAL_PLATE
             if mat.normalTexture is not None and normal_scales and mat.name in normal_scales:
                 normal_texture = _as_rgba_u8(mat.normalTexture)
@@ -189,7 +197,7 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
             if getattr(mat, "image", None) is not None:
                 texture = _as_rgba_u8(mat.image)
                 colors[:] = (1.0, 1.0, 1.0, 1.0)
-        if (texture is not None or normal_texture is not None) and visual.uv is not None and len(visual.uv) == n:
+        if (texture is not None or normal_texture is not None or plate) and visual.uv is not None and len(visual.uv) == n:
             uvs = np.asarray(visual.uv, np.float32)
             uvs = np.stack([uvs[:, 0], 1.0 - uvs[:, 1]], axis=1)  # image row 0 at v = 0
         else:
@@ -205,11 +213,11 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
         else:
             tangents = _orthonormal_tangents(tangents[:, :3], tangents[:, 3], normals)
     return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture,
-                        tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale)
+                        tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale, plate=plate)
 
 
 def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
-                 normal_texture=None, normal_scale=1.0) -> MeshPart:
+                 normal_texture=None, normal_scale=1.0, plate=None) -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
     glass = colors[:, 3] < 0.5
     if glass.any():  # transparent glass: render as dark glossy opaque surface
@@ -228,4 +236,5 @@ def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, t
         tangents=None if tangents is None else np.asarray(tangents, np.float32),
         normal_texture=normal_texture,
         normal_scale=float(normal_scale),
+        plate=plate,
     )

@@ -29,14 +29,16 @@ def vertex_layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -
 
 @dataclass(frozen=True)
 class GpuMaps:
-    """The textures of one part: sRGB base colour and linear tangent-space normal map."""
+    """The textures of one part: sRGB base colour and linear tangent-space normal map; ``plate``:
+    a number plate's image size, the part drawn with each object's plate (:mod:`.lit`)."""
 
     base: moderngl.Texture | None
     normal: moderngl.Texture | None = None
     normal_scale: float = 1.0
+    plate: tuple[int, int] | None = None
 
 
-def _mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
+def mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
     """An RGBA8 texture of ``image`` (H, W, 4) uint8, repeating, trilinear."""
     tex = gl.texture((image.shape[1], image.shape[0]), 4, image, filter_linear=True)
     tex.build_mipmaps()
@@ -100,9 +102,9 @@ class GpuModel(_Mesh):
                                         axis=1).astype(np.float32))
             indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
             first += len(part.positions)
-            maps = GpuMaps(None if part.texture is None else _mipmapped(gl, part.texture))
+            maps = GpuMaps(None if part.texture is None else mipmapped(gl, part.texture), plate=part.plate)
             if part.normal_texture is not None and part.tangents is not None:
-                maps = replace(maps, normal=_mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
+                maps = replace(maps, normal=mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
             if has_tangents:
                 tangents.append(np.zeros((len(part.positions), 4), np.float32) if maps.normal is None
                                 else np.asarray(part.tangents, np.float32))
@@ -114,7 +116,7 @@ class GpuModel(_Mesh):
         self.ranges: list[tuple[int, int, GpuMaps]] = []
         start = 0
         for idx, maps in zip(indices, maps_of):
-            plain = maps.base is None and maps.normal is None
+            plain = maps.base is None and maps.normal is None and maps.plate is None
             if self.ranges and plain and self.ranges[-1][2] == maps:
                 f, n, _ = self.ranges[-1]
                 self.ranges[-1] = (f, n + len(idx), maps)

@@ -17,7 +17,8 @@ import numpy as np
 from ..camera import Camera
 from ..gl import GLContext
 from ..models import Model
-from .gpu_model import GpuMaps, GpuModel, GroundPlane
+from ..plates import plate_image
+from .gpu_model import GpuMaps, GpuModel, GroundPlane, mipmapped
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4
 from .values import Lighting, RenderObject
 
@@ -29,6 +30,8 @@ SKY_RADIUS = 0.5
 #: contact shadow: ground under a part of an object lower than about this (metres) loses most
 #: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
 CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
+#: number plates kept on the GPU (a batch meets new ones with every image set)
+PLATES_KEPT = 16
 
 
 def environment(gl: GLContext, photo: np.ndarray) -> moderngl.Texture:
@@ -110,16 +113,32 @@ class LitDraw:
         self.plane = plane
         self._gpu_model = gpu_model
         self.uniforms: dict[str, object] = {}  # what every lit variant takes in this render
+        self._plates: dict[tuple[str, tuple[int, int]], moderngl.Texture] = {}  # the newest last
 
-    def program(self, plane: bool, shadows: bool = True, maps: GpuMaps | None = None) -> moderngl.Program:
+    def _base_texture(self, obj: RenderObject, maps: GpuMaps) -> moderngl.Texture | None:
+        """The base colour texture a run of ``obj``'s parts is drawn with: the part's own, or
+        for a number plate the object's plate (made on first use, :data:`PLATES_KEPT` kept)."""
+        if maps.plate is None or obj.plate is None:
+            return maps.base
+        key = (obj.plate, maps.plate)
+        tex = self._plates.pop(key, None)
+        if tex is None:
+            tex = mipmapped(self.gl, plate_image(*key))
+            if len(self._plates) >= PLATES_KEPT:
+                self.gl.free(self._plates.pop(next(iter(self._plates))))
+        self._plates[key] = tex
+        return tex
+
+    def program(self, plane: bool, shadows: bool = True, textured: bool = False,
+                normal_map: bool = False) -> moderngl.Program:
         """The lit.glsl variant for a ground plane (``shadows`` False: Ir) or for object parts
-        with ``maps``, with this render's uniforms (:attr:`uniforms`) set."""
+        (with a base colour texture, a normal map), with this render's uniforms (:attr:`uniforms`) set."""
         defines = {"PLANE": 1} if plane else {}
         if plane and not shadows:
             defines["NO_SHADOWS"] = 1
-        if maps is not None and maps.base is not None:
+        if textured:
             defines["TEXTURE"] = 1
-        if maps is not None and maps.normal is not None:
+        if normal_map:
             defines["NORMAL_MAP"] = 1
         prog = self.gl.program("lit", **defines)
         for name, value in self.uniforms.items():
@@ -151,15 +170,16 @@ class LitDraw:
         for obj in objects:
             gpu = self._gpu_model(obj.model)
             for first, count, maps in gpu.ranges:
-                key = (maps.base is not None, maps.normal is not None)
+                base = self._base_texture(obj, maps)
+                key = (base is not None, maps.normal is not None)
                 if key not in variants:
-                    variants[key] = self.program(plane=False, maps=maps)
+                    variants[key] = self.program(plane=False, textured=key[0], normal_map=key[1])
                 prog = variants[key]
                 prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
                 prog["u_sun_scale"].value = float(obj.sun_visibility)
                 set_recolour(prog, obj.recolour)
-                if maps.base is not None:
-                    maps.base.use(0)
+                if base is not None:
+                    base.use(0)
                 if maps.normal is not None:
                     maps.normal.use(6)
                     prog["u_normal_scale"].value = maps.normal_scale

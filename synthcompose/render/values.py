@@ -43,6 +43,7 @@ class RenderObject:
     plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
     recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
+    plate: str | None = None  # the registration on its number plates (plates.py); None: blank plates
 
     def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
         """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
