@@ -3,15 +3,15 @@
 
 * `synthcompose batch` with the right view on and off (child processes): CPU-seconds per set of
   each, their difference, and the right view's own stage time (render + compose, `right`);
-* per image set (stereo_check.check_pair, OpenCV StereoSGBM on the augmented pair): over the
-  inserted objects' visible pixels, the share the matcher matched, the share of those within
-  1 px of the written disparity, the same over the pixels whose window has the texture to
-  measure a disparity, and the same figures for the frame's own cars and people against the
+* per image set and seed (stereo_check.check_pair, OpenCV StereoSGBM on the augmented pair):
+  over the inserted objects' visible pixels, the share the matcher matched, the share of those
+  within 1 px of the written disparity (and of those the right camera sees too), the same over
+  the pixels whose window has the texture to measure a disparity, and the same figures for the frame's own cars and people against the
   input disparity; without a matcher, the mean difference between the left photo and the right
   one read at the written disparity, and 0.5 px off it; elsewhere, the share matched alike on the
-  augmented and the input pair.
+  augmented and the input pair; pooled over all sets and seeds, and the range per set.
 
-    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--real /path/to/cityscapes] [--keep DIR]
+    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--seeds 1 2 3] [--real /path/to/cityscapes] [--keep DIR]
 
 Never commit outputs made from real frames.
 """
@@ -42,52 +42,62 @@ def right_codec_cpu(data: Path, count: int) -> float:
     return (cpu_s() - t0) / max(len(idents), 1)
 
 
-def report(name: str, data: Path, count: int, objects: int, keep: Path) -> None:
-    on = run_batch(data, 1, count, keep=keep / name, objects_per_image=objects, render={"right_view": True})
-    off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False})
+def report(name: str, data: Path, count: int, objects: int, keep: Path, seeds: list[int]) -> None:
+    on = run_batch(data, 1, count, keep=keep / name / f"seed{seeds[0]}", objects_per_image=objects,
+                   render={"right_view": True}, seed=seeds[0])
+    off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False}, seed=seeds[0])
+    for seed in seeds[1:]:
+        run_batch(data, 1, count, keep=keep / name / f"seed{seed}", objects_per_image=objects,
+                  render={"right_view": True}, seed=seed)
     per = lambda r: r["cpu_s"] / r["sets"]  # noqa: E731
     stages, _ = stage_cpu(data, count, objects, render={"right_view": True})
-    print(f"\n== {name}: {on['sets']} image sets, {objects} objects each, {data}")
-    print(f"CPU-s per set: right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
+    print(f"\n== {name}: {on['sets']} image sets x {len(seeds)} seeds, {objects} objects each, {data}")
+    print(f"CPU-s per set (seed {seeds[0]}): right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
           f"the right view's render + compose (stage 'right', the stages one after the other) "
           f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}; "
           f"the right photo's PNG read and written {right_codec_cpu(data, count):.3f}")
-    cols = ("object_pixels", "matched", "within_1px", "matched_measurable", "within_1px_measurable",
-            "real_within_1px", "real_within_1px_measurable", "residual_at_written", "residual_off_half_px",
-            "elsewhere_same", "right_changed")
-    print(f"{'image set':<42}" + "".join(f"{c:>16}" for c in ("objects px", "matched", "<=1px", "measurable",
-                                                               "<=1px (meas.)", "own <=1px", "own (meas.)",
-                                                               "resid. at d", "resid. d+-0.5",
-                                                               "elsewhere same", "right changed")))
+    cols = ("object_pixels", "matched", "within_1px", "within_1px_both_views", "matched_measurable",
+            "within_1px_measurable", "real_within_1px", "real_within_1px_measurable", "residual_at_written",
+            "residual_off_half_px", "elsewhere_same", "right_changed")
+    print(f"{'seed':>4} {'image set':<38}" + "".join(f"{c:>15}" for c in (
+        "objects px", "matched", "<=1px", "<=1px (both)", "measurable", "<=1px (meas.)", "own <=1px", "own (meas.)",
+        "resid. at d", "resid. d+-0.5", "elsewhere same", "right changed")))
     pooled = {"m": 0, "w": 0.0, "mm": 0, "wm": 0.0}
-    for ident in find_image_sets(data)[:count]:
-        if not ident.path(keep / name, "right").is_file():
-            continue
-        c = check_pair(data, keep / name, ident)
-        d = c.to_dict()
-        print(f"{c.key[-42:]:<42}" + "".join(f"{d[k]:>16}" for k in cols))
-        if c.matched:
-            pooled["m"] += c.matched
-            pooled["w"] += c.matched * c.within_1px
-        if c.matched_measurable:
-            pooled["mm"] += c.matched_measurable
-            pooled["wm"] += c.matched_measurable * c.within_1px_measurable
+    shares = []
+    for seed in seeds:
+        out = keep / name / f"seed{seed}"
+        for ident in find_image_sets(data)[:count]:
+            if not ident.path(out, "right").is_file():
+                continue
+            c = check_pair(data, out, ident)
+            d = c.to_dict()
+            print(f"{seed:>4} {c.key[-38:]:<38}" + "".join(f"{d[k]:>15}" for k in cols))
+            if c.matched:
+                pooled["m"] += c.matched
+                pooled["w"] += c.matched * c.within_1px
+                shares.append(c.within_1px)
+            if c.matched_measurable:
+                pooled["mm"] += c.matched_measurable
+                pooled["wm"] += c.matched_measurable * c.within_1px_measurable
     print(f"pooled: within 1 px {pooled['w'] / max(pooled['m'], 1):.3f} of {pooled['m']} matched object pixels; "
-          f"{pooled['wm'] / max(pooled['mm'], 1):.3f} of {pooled['mm']} measurable (target >= 0.90)")
+          f"{pooled['wm'] / max(pooled['mm'], 1):.3f} of {pooled['mm']} measurable (target >= 0.90); "
+          f"per set {min(shares, default=float('nan')):.3f} .. {max(shares, default=float('nan')):.3f}, "
+          f"{sum(v >= 0.9 for v in shares)} of {len(shares)} at >= 0.90")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--count", type=int, default=4)
     ap.add_argument("--objects", type=int, default=3)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1], help="one batch per seed (default: 1)")
     ap.add_argument("--real", type=Path, help="a Cityscapes root with rightImg8bit (real frames)")
     ap.add_argument("--keep", type=Path, help="keep the augmented outputs here (default: a temporary folder)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         keep = args.keep or Path(tmp)
-        report("generated", dataset(args.count, 2048, 1024, right=True), args.count, args.objects, keep)
+        report("generated", dataset(args.count, 2048, 1024, right=True), args.count, args.objects, keep, args.seeds)
         if args.real is not None:
-            report("real", args.real, args.count, args.objects, keep)
+            report("real", args.real, args.count, args.objects, keep, args.seeds)
     return 0
 
 

@@ -3,7 +3,8 @@ StereoSGBM) is run on the augmented left/right photos and on the input pair, and
 the disparity the tool wrote (:func:`check_pair`).
 
 * over the inserted objects' visible pixels (the record's masks): the share of the pixels where
-  the matcher finds a disparity that lies within 1 px of the written one;
+  the matcher finds a disparity that lies within 1 px of the written one (also over those the
+  right camera sees too, :func:`seen_by_both`: a hidden pixel has no match to find);
 * elsewhere: the share of pixels where the matcher finds the same disparity (within 1 px) on the
   augmented pair as on the input pair, over the pixels whose matching window saw no change in
   either photo (the left window, and the right one at the input pair's match).
@@ -59,6 +60,7 @@ class PairCheck:
     matched_measurable: int  # of the matched, where the window's texture measures a disparity
     within_1px_measurable: float  # of those, share within 1 px of the written disparity
     median_error_px: float  # median |matcher - written| over the matched
+    within_1px_both_views: float  # within_1px over the matched pixels the right camera sees too
     real_matched: int  # the frame's own cars and people (labels): matched pixels
     real_within_1px: float  # of those, within 1 px of the input disparity (the same matcher)
     real_within_1px_measurable: float
@@ -92,6 +94,19 @@ def _agreement(d: np.ndarray, truth: np.ndarray, mask: np.ndarray, texture: np.n
     both = found & texture
     share_m = float((err[both] <= 1.0).mean()) if both.any() else float("nan")
     return int(found.sum()), share, int(both.sum()), share_m, median
+
+
+def seen_by_both(disparity: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels of the left view whose surface the right camera sees too, by the
+    disparity itself: a pixel is hidden from the right camera when a nearer pixel to its right
+    lands left of it (more than half a pixel) in the right view. Hidden pixels have no match;
+    a matcher gives them a neighbour's disparity."""
+    cols = np.arange(disparity.shape[1], dtype=np.float32)
+    x = np.where(np.isfinite(disparity), cols - disparity, np.inf).astype(np.float32)
+    # the leftmost landing point of the pixels to the right of each pixel
+    right_min = np.minimum.accumulate(x[:, ::-1], axis=1)[:, ::-1]
+    after = np.concatenate([right_min[:, 1:], np.full((x.shape[0], 1), np.inf, np.float32)], axis=1)
+    return np.isfinite(disparity) & (after >= x - 0.5)
 
 
 def photo_residual(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, mask: np.ndarray,
@@ -132,6 +147,7 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     d_in = sgbm(left_in, right_in)
     texture = measurable(left_out)
     matched, within, matched_m, within_m, median = _agreement(d_out, written, objects, texture)
+    within_both = _agreement(d_out, written, objects & seen_by_both(written), texture)[1]
     # the same matcher on the frame's own cars and people, against the input's disparity
     real_matched, real_within, real_within_m = 0, float("nan"), float("nan")
     if ident.path(inputs, "labelIds").exists():
@@ -160,6 +176,6 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     keep = np.zeros_like(both)
     keep[rows[inside], cols[inside]] = ~right_touch[rows[inside], target[inside]]
     same = np.abs(d_out[keep] - d_in[keep]) <= 1.0
-    return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, real_matched,
+    return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, within_both, real_matched,
                      real_within, real_within_m, at, off, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
                      int(right_changed.sum()))

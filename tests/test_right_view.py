@@ -15,7 +15,7 @@ from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.fileio import decode_disparity, read_png
 from synthcompose.right_view import carry_to_right
-from synthcompose.stereo_check import check_pair
+from synthcompose.stereo_check import check_pair, seen_by_both
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .test_batch import write_manifest
@@ -203,3 +203,16 @@ def test_the_right_render_reuses_the_left_shadow_maps_with_the_same_pixels(gl_cl
         assert np.array_equal(right.read(name), alone.read(name)), name
     both.release(right)
     fresh.release(alone)
+
+
+def test_pixels_hidden_from_the_right_camera_are_found_from_the_disparity():
+    # a near block (disparity 10) in front of a far wall (2): the 7 wall pixels left of the block
+    # land (u - 2) behind the block's landing points (40 .. 50) in the right view
+    d = np.full((3, 100), 2.0, np.float32)
+    d[:, 50:61] = 10.0
+    d[2, 90] = np.nan  # no disparity: not seen
+    seen = seen_by_both(d)
+    hidden = np.nonzero(~seen[0])[0]
+    assert hidden.tolist() == list(range(43, 50))
+    assert seen[:, 50:61].all()  # the near block is seen by both
+    assert not seen[2, 90] and seen[2, 91]
