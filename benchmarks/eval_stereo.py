@@ -11,7 +11,7 @@
   one read at the written disparity, and 0.5 px off it; elsewhere, the share matched alike on the
   augmented and the input pair; pooled over all sets and seeds, and the range per set.
 
-    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--seeds 1 2 3] [--real /path/to/cityscapes] [--keep DIR]
+    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--seeds 1 2 3] [--repeat 3] [--real /path/to/cityscapes] [--keep DIR]
 
 Never commit outputs made from real frames.
 """
@@ -21,6 +21,8 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -42,19 +44,27 @@ def right_codec_cpu(data: Path, count: int) -> float:
     return (cpu_s() - t0) / max(len(idents), 1)
 
 
-def report(name: str, data: Path, count: int, objects: int, keep: Path, seeds: list[int]) -> None:
-    on = run_batch(data, 1, count, keep=keep / name / f"seed{seeds[0]}", objects_per_image=objects,
-                   render={"right_view": True}, seed=seeds[0])
-    off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False}, seed=seeds[0])
+def report(name: str, data: Path, count: int, objects: int, keep: Path, seeds: list[int], repeat: int) -> None:
+    per = lambda r: r["cpu_s"] / r["sets"]  # noqa: E731
+    ons, offs, rights, lefts = [], [], [], []
+    for k in range(repeat):  # on and off in turn: the machine's drift falls on both
+        on = run_batch(data, 1, count, keep=keep / name / f"seed{seeds[0]}" if k == 0 else None,
+                       objects_per_image=objects, render={"right_view": True}, seed=seeds[0])
+        off = run_batch(data, 1, count, objects_per_image=objects, render={"right_view": False}, seed=seeds[0])
+        stages, _ = stage_cpu(data, count, objects, render={"right_view": True}, seed=seeds[0])
+        ons.append(per(on))
+        offs.append(per(off))
+        rights.append(stages.get("right", 0.0))
+        lefts.append(stages.get("render", 0.0) + stages.get("compose", 0.0))
     for seed in seeds[1:]:
         run_batch(data, 1, count, keep=keep / name / f"seed{seed}", objects_per_image=objects,
                   render={"right_view": True}, seed=seed)
-    per = lambda r: r["cpu_s"] / r["sets"]  # noqa: E731
-    stages, _ = stage_cpu(data, count, objects, render={"right_view": True})
+    med = lambda v: float(np.median(v))  # noqa: E731
     print(f"\n== {name}: {on['sets']} image sets x {len(seeds)} seeds, {objects} objects each, {data}")
-    print(f"CPU-s per set (seed {seeds[0]}): right view on {per(on):.3f}, off {per(off):.3f}, difference {per(on) - per(off):+.3f}; "
+    print(f"CPU-s per set (seed {seeds[0]}, median of {repeat} runs): right view on {med(ons):.3f}, off {med(offs):.3f}, "
+          f"difference {med(np.subtract(ons, offs)):+.3f} (each run: {', '.join(f'{a - b:+.2f}' for a, b in zip(ons, offs))}); "
           f"the right view's render + compose (stage 'right', the stages one after the other) "
-          f"{stages.get('right', 0.0):.3f}; the left's {stages.get('render', 0.0) + stages.get('compose', 0.0):.3f}; "
+          f"{med(rights):.3f}; the left's {med(lefts):.3f}; "
           f"the right photo's PNG read and written {right_codec_cpu(data, count):.3f}")
     cols = ("object_pixels", "matched", "within_1px", "within_1px_both_views", "matched_measurable",
             "within_1px_measurable", "real_within_1px", "real_within_1px_measurable", "residual_at_written",
@@ -90,14 +100,15 @@ def main() -> int:
     ap.add_argument("--count", type=int, default=4)
     ap.add_argument("--objects", type=int, default=3)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1], help="one batch per seed (default: 1)")
+    ap.add_argument("--repeat", type=int, default=1, help="CPU cost: the on / off batches this many times in turn")
     ap.add_argument("--real", type=Path, help="a Cityscapes root with rightImg8bit (real frames)")
     ap.add_argument("--keep", type=Path, help="keep the augmented outputs here (default: a temporary folder)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         keep = args.keep or Path(tmp)
-        report("generated", dataset(args.count, 2048, 1024, right=True), args.count, args.objects, keep, args.seeds)
+        report("generated", dataset(args.count, 2048, 1024, right=True), args.count, args.objects, keep, args.seeds, args.repeat)
         if args.real is not None:
-            report("real", args.real, args.count, args.objects, keep, args.seeds)
+            report("real", args.real, args.count, args.objects, keep, args.seeds, args.repeat)
     return 0
 
 

@@ -21,12 +21,15 @@ import numpy as np
 DISTRICTS = ("A", "AC", "B", "BN", "BO", "D", "DA", "DO", "DU", "E", "EF", "EN", "F", "GE", "H", "HB",
              "HH", "HRO", "J", "K", "KA", "KR", "LEV", "M", "MG", "MS", "NE", "OF", "S", "SU", "UL",
              "W", "WI")
-#: letters of the middle group (the umlauts and some that read like digits are not given out)
+#: letters of the middle group (I, O and Q, which read like digits, are not given out)
 LETTERS = "".join(c for c in string.ascii_uppercase if c not in "IOQ")
 #: how often a number has 1, 2, 3, 4 digits (most have three or four)
 DIGITS = np.array([0.05, 0.15, 0.35, 0.45])
 #: plate image (width, height) px when the model's own texture gives none: 520 x 110 mm
 SIZE = (520, 110)
+#: a plate is drawn this many pixels high, as wide as the model's texture's aspect asks (within
+#: 1 to 10 heights): the texture's own resolution does not matter, its UVs span it
+HEIGHT_PX = 110
 
 
 def draw_registration(rng: np.random.Generator) -> str:
@@ -40,10 +43,11 @@ def draw_registration(rng: np.random.Generator) -> str:
 
 
 def plate_image(text: str, size: tuple[int, int] = SIZE) -> np.ndarray:
-    """(H, W, 4) uint8 sRGB image of a plate reading ``text``, ``size`` = (W, H): white ground
-    (the plate material's own colour multiplies it), a dark rim, the blue EU band with a "D",
-    black characters filling the height."""
-    w, h = int(size[0]), int(size[1])
+    """(H, W, 4) uint8 sRGB image of a plate reading ``text`` with the aspect of ``size`` = (W, H)
+    (:data:`HEIGHT_PX` high): white ground (the plate material's own colour multiplies it), a
+    dark rim, the blue EU band with a "D", black characters filling the height."""
+    h = HEIGHT_PX
+    w = int(round(h * min(max(size[0] / max(size[1], 1), 1.0), 10.0)))
     img = np.full((h, w, 3), 255, np.uint8)
     rim = max(1, round(h * 0.04))
     cv2.rectangle(img, (rim // 2, rim // 2), (w - 1 - rim // 2, h - 1 - rim // 2), (25, 25, 25), rim)
@@ -51,7 +55,7 @@ def plate_image(text: str, size: tuple[int, int] = SIZE) -> np.ndarray:
     cv2.rectangle(img, (rim, rim), (rim + band, h - 1 - rim), (20, 70, 170), -1)
     font = cv2.FONT_HERSHEY_DUPLEX
     scale = cv2.getFontScaleFromHeight(font, max(int(h * 0.22), 1), 1)
-    (dw, dh), _ = cv2.getTextSize("D", font, scale, 1)
+    (dw, _), _ = cv2.getTextSize("D", font, scale, 1)
     cv2.putText(img, "D", (rim + (band - dw) // 2, h - rim - int(h * 0.12)), font, scale, (235, 235, 235),
                 max(1, round(h * 0.02)), cv2.LINE_AA)
     centre, radius = np.array([rim + band / 2, h * 0.33]), band * 0.3

@@ -31,14 +31,17 @@ def test_registrations_are_german_style_seeded_and_varied():
 
 
 def test_the_plate_image_is_dark_characters_on_white_with_the_blue_band():
-    img = plate_image("K AB 1234", (521, 113))
-    assert img.shape == (113, 521, 4) and img.dtype == np.uint8 and (img[..., 3] == 255).all()
+    img = plate_image("K AB 1234", (521, 113))  # drawn 110 px high, at the texture's aspect
+    assert img.shape == (110, 507, 4) and img.dtype == np.uint8 and (img[..., 3] == 255).all()
     band = img[20:90, 10:40, :3].astype(int)
     assert np.median(band[..., 2]) > 2 * np.median(band[..., 0])  # blue
-    text = img[10:103, 60:510, :3].min(axis=2)
+    text = img[10:100, 60:497, :3].min(axis=2)
     dark, white = (text < 60).mean(), (text > 230).mean()
     assert 0.1 < dark < 0.45 and white > 0.45
     assert not np.array_equal(img, plate_image("K AB 1235", (521, 113)))
+    # any texture size: the same height, its aspect within 1 .. 10
+    assert plate_image("K AB 1234", (8, 2)).shape == (110, 440, 4)
+    assert plate_image("K AB 1234", (4096, 100)).shape == (110, 1100, 4)
 
 
 def test_the_car_model_has_plate_parts_and_each_car_draws_its_registration():
