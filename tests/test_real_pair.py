@@ -14,7 +14,7 @@ from synthcompose.stereo_check import check_pair
 
 from .real_root import REAL, needs_real
 from .test_batch import write_manifest
-from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN
+from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN
 
 pytestmark = needs_real
 
@@ -29,6 +29,9 @@ def test_real_pairs_stay_stereo_pairs(tmp_path):
     assert main(["batch", str(manifest), "--workers", "1"]) == 0
     checks = [check_pair(root, tmp_path / "out", i) for i in idents if i.path(tmp_path / "out", "right").is_file()]
     assert checks
+    # over all the objects' pixels the matcher matched, pooled over the frames (the issue's figure)
+    matched = sum(c.matched for c in checks)
+    assert sum(c.matched * c.within_1px for c in checks if c.matched) >= PAIR_WITHIN_1PX_MIN * matched, checks
     for c in checks:
         assert c.within_1px_measurable >= PAIR_WITHIN_1PX_MEASURABLE_MIN, c
         assert c.elsewhere_same >= PAIR_ELSEWHERE_SAME_MIN, c
