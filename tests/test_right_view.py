@@ -161,8 +161,6 @@ def test_a_stereo_matcher_finds_the_written_disparity_on_the_augmented_pair(pair
     assert within / measured >= PAIR_WITHIN_1PX_MEASURABLE_MIN, checks
     # over all the pixels it matched (the figure), pooled over the sets
     matched = sum(c.matched for c in checks)
-    print("within 1 px, all matched:", sum(c.matched * c.within_1px for c in checks if c.matched) / matched,
-          [round(c.within_1px, 3) for c in checks])
     assert sum(c.matched * c.within_1px for c in checks if c.matched) >= PAIR_WITHIN_1PX_MIN * matched, checks
     for c in checks:
         assert c.elsewhere_same >= PAIR_ELSEWHERE_SAME_MIN, c
