@@ -196,8 +196,8 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
         raise
 
 
-def write_png(path: str | Path, img: np.ndarray) -> None:
-    write_bytes_atomic(path, encode_png(img))
+def write_png(path: str | Path, img: np.ndarray, png_filter: str | None = None) -> None:
+    write_bytes_atomic(path, encode_png(img, png_filter))
 
 
 def _no_constant(name: str):
@@ -222,10 +222,26 @@ def read_json(path: str | Path) -> Any:
 _COMPACT = json.JSONEncoder(allow_nan=False, separators=(", ", ": "))
 
 
-def _flat(value: Any) -> bool:
-    """A list of numbers, or of lists of numbers (a polygon, a matrix, a box): one line."""
-    return all(isinstance(v, (int, float)) or (isinstance(v, list) and
-               all(isinstance(x, (int, float)) for x in v)) for v in value)
+#: what the compact encoding of a list of numbers (or of lists of numbers) may hold
+_NUMBER_LIST_CHARS = str.maketrans("", "", "0123456789+-.eE, []truefals")
+#: a list opened inside a list that is not closed first: nested more than two deep
+_DEEPER = re.compile(r"\[[^\]]*\[")
+
+
+def _flat(value: list | tuple) -> str | None:
+    """The one-line JSON of a list of numbers, or of lists of numbers (a polygon, a matrix, a
+    box); None for any other list. Encoded by the C encoder and checked on its text (numbers,
+    booleans, at most two levels of brackets), not element by element: a frame's polygons hold
+    about 100,000 numbers. A tuple among the elements is not a list of numbers."""
+    if any(issubclass(t, (tuple, dict, str)) or t is type(None) for t in set(map(type, value))):
+        return None
+    try:
+        text = _COMPACT.encode(value)
+    except (TypeError, ValueError):  # not JSON as it stands: laid out element by element, where it fails
+        return None
+    if text.translate(_NUMBER_LIST_CHARS) or _DEEPER.search(text, 1, len(text) - 1):
+        return None
+    return text
 
 
 def _layout(obj: Any, indent: str, out: list[str]) -> None:
@@ -241,7 +257,11 @@ def _layout(obj: Any, indent: str, out: list[str]) -> None:
             out.append(("," if k else "") + "\n" + inner + _COMPACT.encode(name) + ": ")
             _layout(value, inner, out)
         out.append("\n" + indent + "}")
-    elif isinstance(obj, (list, tuple)) and obj and not _flat(obj):
+    elif isinstance(obj, (list, tuple)) and obj:
+        flat = _flat(obj)
+        if flat is not None:
+            out.append(flat)
+            return
         inner = indent + "  "
         out.append("[")
         for k, value in enumerate(obj):
