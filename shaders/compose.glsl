@@ -127,6 +127,18 @@ vec3 blurred(ivec2 p, out float cover) {
     vec3 bg0 = texelFetch(u_layer_bg, p, 0).rgb;
     bool covered = obj0.a >= 0.999;
     ivec2 hi = textureSize(u_photo, 0) - 1;
+    if (!covered) {
+        // no object within reach: the blur below adds nothing and B = bg0, exactly (most of
+        // the region of interest is the planes around the objects)
+        bool near = false;
+        for (int dy = -u_blur_radius; dy <= u_blur_radius; ++dy)
+            for (int dx = -u_blur_radius; dx <= u_blur_radius; ++dx)
+                near = near || texelFetch(u_alpha, clamp(p + ivec2(dx, dy), ivec2(0), hi), 0).r != 0.0;
+        if (!near) {
+            cover = 0.0;
+            return bg0;
+        }
+    }
     vec4 acc = vec4(0.0);
     vec3 bg_acc = vec3(0.0);
     float wsum = 0.0, bg_w = 0.0;
@@ -165,13 +177,22 @@ void main() {
 }
 #else
 layout(location = 0) out vec4 out_rgb;
+#if !defined RGB_ONLY
 layout(location = 1) out uint out_label;
 layout(location = 2) out uint out_instance;
 layout(location = 3) out uint out_disparity;
 layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
+#endif
 
+// Variants (compose.Composer): BLUR when the object layer is blurred (u_blur_radius > 0: the
+// composite comes from the LAYERS pass's layers, not from this pixel's fetch); RGB_ONLY for a
+// view whose labels are not written (the right view of a stereo pair): the colour alone.
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
+#if defined BLUR
+    float cover;
+    vec3 rgb = blurred(p, cover);
+#else
     Pixel x = fetch(p);
     // Irpv and Ir are resolved over 4 samples with a zero background, so at an object's
     // edge Irpv = a * object + (1 - a) * plane and the formula blends exactly.
@@ -184,7 +205,7 @@ void main() {
     }
     vec3 rgb = a * x.irpv + (1.0 - a) * (x.R + diff);
     float cover = a;
-    if (u_blur_radius > 0) rgb = blurred(p, cover);
+#endif
     vec3 srgb = linear_to_srgb(rgb);
     if (cover > 0.0 && any(greaterThan(u_noise_sigma, vec3(0.0)))) {
         // the photo's noise where the object replaces it: what the background keeps of its own
@@ -193,21 +214,23 @@ void main() {
         srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p, 0).rgb * share, 0.0, 1.0);
     }
     out_rgb = vec4(srgb, 1.0);
-
+#if !defined RGB_ONLY
+    uint label = texelFetch(u_labels, p, 0).r;
     uint id = texelFetch(u_id, p, 0).r;
-    out_label = x.label;
+    out_label = label;
     out_instance = texelFetch(u_instances, p, 0).r;
     out_disparity = texelFetch(u_disparity, p, 0).r;
     out_visible = 0u;
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
-        if (in_front(od, x.sd, x.front, x.ground)) {
+        if (in_front(od, texelFetch(u_scene_depth, p, 0).r, label_in_front(label), texelFetch(u_ground, p, 0).r != 0u)) {
             out_label = u_class[id];
             out_instance = u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
             out_visible = id;
         }
     }
+#endif
 }
 #endif  // LAYERS
 #endif

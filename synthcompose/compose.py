@@ -68,24 +68,37 @@ class Composer:
 
     def __init__(self, gl: GLContext) -> None:
         self.gl = gl.activate()
-        self.prog = gl.program("compose")
-        self.vao = gl.own(gl.ctx.vertex_array(self.prog, []))
         # the blur's first pass (compose.glsl, LAYERS): each pixel's object and background layers
         self.layers_prog = gl.program("compose", LAYERS=1)
         self.layers_vao = gl.own(gl.ctx.vertex_array(self.layers_prog, []))
-        mask = np.zeros(8, np.uint32)
-        for label in FRONT_LABELS:
-            mask[label >> 5] |= np.uint32(1 << (label & 31))
-        for prog in (self.prog, self.layers_prog):
-            prog["u_front_labels"].write(mask.tobytes())
-            prog["u_tol_abs"].value = TOL_ABS
-            prog["u_tol_rel"].value = TOL_REL
+        self._variants: dict[tuple[bool, bool], tuple[moderngl.Program, moderngl.VertexArray]] = {}
+        self._variant(blur=False, rgb_only=False)  # compiled now: a shader error shows at start-up
         self._zero = gl.texture((1, 1), 4, np.zeros((1, 1, 4), np.float32), dtype="f4")  # unused samplers
+
+    def _variant(self, blur: bool, rgb_only: bool) -> tuple[moderngl.Program, moderngl.VertexArray]:
+        """The compose program (compose.glsl's BLUR, RGB_ONLY variants) and its vertex array,
+        compiled on first use with the constant uniforms set."""
+        key = (blur, rgb_only)
+        if key not in self._variants:
+            defines = ({"BLUR": 1} if blur else {}) | ({"RGB_ONLY": 1} if rgb_only else {})
+            prog = self.gl.program("compose", **defines)
+            mask = np.zeros(8, np.uint32)
+            for label in FRONT_LABELS:
+                mask[label >> 5] |= np.uint32(1 << (label & 31))
+            for p in (prog, self.layers_prog):
+                if "u_front_labels" in p:  # (not in the BLUR, RGB_ONLY variant's main pass)
+                    p["u_front_labels"].write(mask.tobytes())
+                    p["u_tol_abs"].value = TOL_ABS
+                    p["u_tol_rel"].value = TOL_REL
+            self._variants[key] = (prog, self.gl.own(self.gl.ctx.vertex_array(prog, [])))
+        return self._variants[key]
 
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
                     instances: Sequence[int], match: CameraMatch | None = None,
-                    tones: Sequence[tuple[float, float]] | None = None) -> dict[str, np.ndarray]:
-        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity.
+                    tones: Sequence[tuple[float, float]] | None = None,
+                    rgb_only: bool = False) -> dict[str, np.ndarray]:
+        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity/visible
+        (``rgb_only``: rgb alone, for a view whose labels are not written: the right view).
         ``match``: blur and noise for the object layer (None: none); ``tones``: (gain, saturation)
         of each object's linear colour, the camera's look (lighting.camera.object_tones; None:
         as rendered)."""
@@ -95,17 +108,19 @@ class Composer:
         roi = passes.roi
         rows, cols = roi.slices
         size = (roi.width, roi.height)
+        match = match or CameraMatch()
+        prog, vao = self._variant(blur=match.blur_radius > 0, rgb_only=rgb_only)
         made = {
             "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
             "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_instances": gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_disparity": gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4"),
             "u_ground": gl.texture(size, 1, np.zeros((roi.height, roi.width), np.uint32) if scene.ground is None
                                    else scene.ground[rows, cols].astype(np.uint32), dtype="u4"),
         }
+        if not rgb_only:
+            made["u_instances"] = gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4")
+            made["u_disparity"] = gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4")
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
-        match = match or CameraMatch()
         noise_on = any(v > 0 for v in match.noise_sigma)
         if noise_on:  # seeded in NumPy: the same seed gives the same bytes on any machine
             noise = np.random.default_rng(match.seed).standard_normal((roi.height, roi.width, 3), np.float32)
@@ -121,16 +136,18 @@ class Composer:
         inputs["u_layer_obj"] = inputs["u_layer_bg"] = self._zero
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
-            for prog in (self.prog, self.layers_prog):
-                if name in prog:
-                    prog[name].value = unit
+            for p in (prog, self.layers_prog):
+                if name in p:
+                    p[name].value = unit
         tone = np.ones((16, 2), np.float32)
         for k, (gain, sat) in enumerate(tones or (), start=1):
             tone[k] = gain, sat
-        for prog in (self.prog, self.layers_prog):
-            prog["u_tone"].write(tone.tobytes())
-            prog["u_ground_band"].value = float(scene.ground_band)
-            prog["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
+        for p in (prog, self.layers_prog):  # (the BLUR variant's main pass reads the layers instead)
+            if "u_tone" in p:
+                p["u_tone"].write(tone.tobytes())
+            if "u_ground_band" in p:
+                p["u_ground_band"].value = float(scene.ground_band)
+                p["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
         layers = []
         if match.blur_radius:  # each pixel's layers once, for the blur's taps to read
             layers = [gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")]
@@ -140,36 +157,41 @@ class Composer:
             self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
             gl.free(layers_fbo)
             for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
-                tex.use(self.prog[name].value)
+                tex.use(prog[name].value)
         cls = np.zeros(16, np.uint32)
         cls[1:len(classes) + 1] = classes
         inst = np.zeros(16, np.uint32)
         inst[1:len(instances) + 1] = instances
-        self.prog["u_class"].write(cls.tobytes())
-        self.prog["u_instance"].write(inst.tobytes())
-        self.prog["u_disp_scale"].value = scene.disparity_scale
-        self.prog["u_noise_sigma"].value = tuple(float(v) / 255.0 for v in match.noise_sigma) if noise_on else (0.0,) * 3
-        self.prog["u_blur_radius"].value = match.blur_radius
-        self.prog["u_blur_sigma"].value = max(match.object_blur_sigma, 1e-3)
+        values = {"u_disp_scale": scene.disparity_scale, "u_blur_radius": match.blur_radius,
+                  "u_noise_sigma": tuple(float(v) / 255.0 for v in match.noise_sigma) if noise_on else (0.0,) * 3,
+                  "u_blur_sigma": max(match.object_blur_sigma, 1e-3)}
+        for name, value in values.items():  # a variant may not use each
+            if name in prog:
+                prog[name].value = value
+        if not rgb_only:
+            prog["u_class"].write(cls.tobytes())
+            prog["u_instance"].write(inst.tobytes())
 
-        outs = [gl.texture(size, 4, dtype="f1"), gl.texture(size, 1, dtype="u4"),
-                gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4")]
+        # the outputs: rgb, then (not rgb_only) label, instance, disparity, visible index
+        outs = [gl.texture(size, 4, dtype="f1")]
+        if not rgb_only:
+            outs += [gl.texture(size, 1, dtype=dtype) for dtype in ("u1", "u2", "u2", "u1")]
         fbo = gl.own(ctx.framebuffer(outs))
         fbo.use()
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        vao.render(moderngl.TRIANGLES, vertices=3)
         gl.wait()
         h, w = roi.height, roi.width
-        rgb = np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]
-        label = np.frombuffer(outs[1].read(), np.uint32).reshape(h, w)
-        instance = np.frombuffer(outs[2].read(), np.uint32).reshape(h, w)
-        disparity = np.frombuffer(outs[3].read(), np.uint32).reshape(h, w)
-        visible = np.frombuffer(outs[4].read(), np.uint32).reshape(h, w)
+        out = {"rgb": np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]}
+        if not rgb_only:
+            for (name, dtype), tex in zip((("label_ids", np.uint8), ("instance_ids", np.uint16),
+                                           ("disparity", np.uint16), ("visible", np.uint8)), outs[1:]):
+                out[name] = np.frombuffer(tex.read(alignment=1), dtype).reshape(h, w)
+            out["instance_ids"] = out["instance_ids"].astype(np.int32)
         gl.free(fbo)
         for tex in outs + layers + list(made.values()):
             gl.free(tex)
-        return {"rgb": rgb, "label_ids": label.astype(np.uint8), "instance_ids": instance.astype(np.int32),
-                "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
+        return out
 
     def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
                 instances: Sequence[int], match: CameraMatch | None = None,

@@ -55,7 +55,7 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects:
                             np.zeros(carried["label_ids"].shape, np.uint16), carried["depth"], scene.disparity_scale,
                             ground=carried.get("ground"), ground_band=scene.ground_band)
         match = None if match is None else replace(match, seed=right_noise_seed(match.seed))
-        out = composer.compose_roi(passes, right, classes, instances, match, tones)
+        out = composer.compose_roi(passes, right, classes, instances, match, tones, rgb_only=True)
     finally:
         renderer.release(passes)
     rgb = photo.copy()
