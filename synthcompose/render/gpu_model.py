@@ -55,19 +55,32 @@ class _Mesh:
     def __init__(self, gl: GLContext, vertices: bytes, indices: bytes, tangents: bytes | None = None) -> None:
         self._gl = gl
         self._vbo = gl.own(gl.ctx.buffer(vertices))
-        self._ibo = gl.own(gl.ctx.buffer(indices))
+        self._indices = indices
+        self.index_count = len(indices) // 4
+        self._ibos = {False: gl.own(gl.ctx.buffer(indices))}
         self._tbo = gl.own(gl.ctx.buffer(tangents)) if tangents is not None else None
-        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+        self._vaos: dict[tuple[moderngl.Program, bool], moderngl.VertexArray] = {}
 
-    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
-        """The vertex array of this mesh for ``prog`` (made on first use)."""
-        if prog not in self._vaos:
+    def vao(self, prog: moderngl.Program, reverse: bool = False) -> moderngl.VertexArray:
+        """The vertex array of this mesh for ``prog`` (made on first use); ``reverse``: its
+        triangles in the opposite order (each one's vertices as they are), so that a draw of
+        index range [first, first + count) in :meth:`reversed_range` is the same triangles
+        drawn last to first."""
+        if (prog, reverse) not in self._vaos:
+            if reverse not in self._ibos:
+                tris = np.frombuffer(self._indices, np.uint32).reshape(-1, 3)[::-1]
+                self._ibos[reverse] = self._gl.own(self._gl.ctx.buffer(np.ascontiguousarray(tris).tobytes()))
             fmt = [vertex_layout(prog, self._vbo, VERTEX_LAYOUT)]
             if self._tbo is not None and prog.get("in_tangent", None) is not None:
                 fmt.append(vertex_layout(prog, self._tbo, (("in_tangent", 4),)))
-            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
-                                                                      index_element_size=4))
-        return self._vaos[prog]
+            self._vaos[prog, reverse] = self._gl.own(self._gl.ctx.vertex_array(
+                prog, fmt, index_buffer=self._ibos[reverse], index_element_size=4))
+        return self._vaos[prog, reverse]
+
+    def reversed_range(self, first: int, count: int) -> int:
+        """Where the index range [first, first + count) of this mesh starts in the reversed
+        index buffer (:meth:`vao` with ``reverse``)."""
+        return self.index_count - first - count
 
 
 class GroundPlane(_Mesh):

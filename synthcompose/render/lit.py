@@ -152,24 +152,36 @@ class LitDraw:
         return prog
 
     def draw(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
-             shadows: bool = True) -> None:
+             shadows: bool = True, reverse: bool = False) -> None:
         """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
         (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
-        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`)."""
+        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`).
+        ``reverse``: every triangle of that sequence in the opposite order (the objects last to
+        first, then the planes): with a depth test that passes equal depths, the fragment that
+        is left at a pixel is the one the forward order leaves with a strict test (the first
+        drawn of the nearest), :class:`~synthcompose.render.shading.PerPixel`'s depth pre-pass."""
+        if not reverse:
+            self._draw_planes(objects, lighting, shadows, reverse)
+        if objects_too:
+            self._draw_objects(objects, reverse)
+        if reverse:
+            self._draw_planes(objects, lighting, shadows, reverse)
+
+    def _draw_planes(self, objects: Sequence[RenderObject], lighting: Lighting, shadows: bool, reverse: bool) -> None:
         prog = self.program(plane=True, shadows=shadows)
-        vao = self.plane.vao(prog)
-        for obj in objects:
+        vao = self.plane.vao(prog, reverse)
+        for obj in (reversed(objects) if reverse else objects):
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)
-        if not objects_too:
-            return
-        # objects drawn over their planes
+
+    def _draw_objects(self, objects: Sequence[RenderObject], reverse: bool) -> None:
+        """The objects over their planes, each run of parts with the variant for its maps."""
         variants: dict[tuple[bool, bool], moderngl.Program] = {}
-        for obj in objects:
+        for obj in (reversed(objects) if reverse else objects):
             gpu = self._gpu_model(obj.model)
-            for first, count, maps in gpu.ranges:
+            for first, count, maps in (reversed(gpu.ranges) if reverse else gpu.ranges):
                 base = self._base_texture(obj, maps)
                 key = (base is not None, maps.normal is not None)
                 if key not in variants:
@@ -183,4 +195,5 @@ class LitDraw:
                 if maps.normal is not None:
                     maps.normal.use(6)
                     prog["u_normal_scale"].value = maps.normal_scale
-                gpu.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)
+                gpu.vao(prog, reverse).render(moderngl.TRIANGLES, vertices=count,
+                                              first=gpu.reversed_range(first, count) if reverse else first)

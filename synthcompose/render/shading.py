@@ -116,10 +116,19 @@ class PerPixel:
         object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
         objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
         planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
-        for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
-            fbo.use()
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            self.lit.draw(objects, lighting, objects_too=with_objects)
+        # the nearest surface's depth first, so that lit.glsl shades each pixel once: the
+        # objects' triangles overlap two to three deep, and llvmpipe shades every fragment that
+        # passes the depth test when it comes (lit.glsl's objects are most of the pass)
+        self._depth_prepass(objects, lighting, centre_depth, view, proj)
+        objects_fbo.use()
+        objects_fbo.depth_mask = False
+        objects_fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.depth_func = "<="
+        self.lit.draw(objects, lighting, objects_too=True, reverse=True)  # what "<" forwards leaves
+        ctx.depth_func = "<"
+        planes_fbo.use()
+        planes_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.lit.draw(objects, lighting, objects_too=False)
         for obj in (objects_fbo, planes_fbo, centre_depth, *centre):  # only their textures are read on
             gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
@@ -156,6 +165,28 @@ class PerPixel:
             gl.free(obj)
         gl.wait()
         return ms, ms_depth, ms_fbo
+
+    def _depth_prepass(self, objects: Sequence[RenderObject], lighting: Lighting, depth: moderngl.Renderbuffer,
+                       view: np.ndarray, proj: np.ndarray) -> None:
+        """The depth of the nearest plane or object at each pixel centre into ``depth``, drawn
+        with fill.glsl, whose vertex stage computes the position as lit.glsl's does (the same
+        products in the same order: the same depths, which the lit draw then tests with "<=")."""
+        gl, ctx = self.gl, self.gl.ctx
+        fbo = gl.own(ctx.framebuffer(depth_attachment=depth))
+        fbo.use()
+        fbo.clear(depth=1.0)
+        fill, fill_plane = self.fill.objects, self.fill.planes
+        for prog in (fill, fill_plane):
+            prog["u_view"].write(gl_mat4(view))
+            prog["u_proj"].write(gl_mat4(proj))
+        vao = self.lit.plane.vao(fill_plane)
+        for obj in objects:
+            fill_plane["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
+            vao.render(moderngl.TRIANGLES)
+        for obj in objects:
+            fill["u_model"].write(gl_mat4(obj.vehicle_from_object))
+            self._gpu_model(obj.model).draw("fill")
+        gl.free(fbo)
 
     def ir_source(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int]):
         """The objects' ground planes alone, unshadowed, shaded once per pixel at its centre: a
