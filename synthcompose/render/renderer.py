@@ -58,6 +58,7 @@ class Renderer:
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
         self.shadows = ShadowMaps(gl, shadow_size)
         self._lit = LitDraw(gl, GroundPlane(gl), self._gpu_model)
+        self._env: tuple[np.ndarray, moderngl.Texture] | None = None  # (photo, its reflection texture)
         self._shading = PerSample(gl, self._lit, precision) if fill is None else \
             PerPixel(gl, fill, self._lit, self._gpu_model, precision)
 
@@ -87,10 +88,11 @@ class Renderer:
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
         tex: dict[str, moderngl.Texture] = {}
+        env = None
         if photo is not None:
             rows, cols = roi.slices
             tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
-            tex["env"] = environment(gl, photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
+            env = self._environment(photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
         if sun_mask is not None:
             rows, cols = roi.slices
             tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
@@ -99,8 +101,8 @@ class Renderer:
         light = light_matrices(objects, lighting)  # half, sun, sky, under
         self.shadows.draw(objects, light[1:], self._gpu_model)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
-                                            tex.get("env"), sun_mask is not None)
-        bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), tex.get("env"), tex.get("sun_mask"))
+                                            env, sun_mask is not None)
+        bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), env, tex.get("sun_mask"))
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
 
@@ -123,6 +125,17 @@ class Renderer:
         _resolve(gl, ms_fbo_ir, [tex["ir"]], ms_depth, ms[0])
         tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
         return RenderPasses(roi, cam, tex, gl)
+
+    def _environment(self, photo: np.ndarray) -> moderngl.Texture:
+        """The reflection texture of ``photo`` (:func:`~.lit.environment`), made once for the
+        render of both views of a stereo pair (the right view reflects the left photo) and kept
+        until a render asks for another photo."""
+        if self._env is not None and self._env[0] is photo:
+            return self._env[1]
+        if self._env is not None:
+            self.gl.free(self._env[1])
+        self._env = (photo, environment(self.gl, photo))
+        return self._env[1]
 
     def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
         """The id pass: (uint object index 1..K at each pixel centre, 0 = none; its depth)."""
