@@ -37,6 +37,13 @@ MAX_OBJECTS = 15
 GROUND_TOL_REL = 0.05
 
 
+def label_mask(labels: np.ndarray, ids) -> np.ndarray:
+    """(H, W) bool: ``labels`` (uint8) is one of ``ids`` (``np.isin``, by a 256-entry table)."""
+    table = np.zeros(256, bool)
+    table[list(ids)] = True
+    return table[labels]
+
+
 @dataclass(frozen=True, eq=False)
 class Composed:
     """Full-frame outputs. rgb (H, W, 3) uint8; label_ids (H, W) uint8; instance_ids (H, W)
