@@ -47,7 +47,8 @@ def _contours(mask: np.ndarray, mode: int, chain: int = cv2.CHAIN_APPROX_NONE
                ) -> tuple[list[np.ndarray], np.ndarray | None]:
     """OpenCV contours ((N, 2) int x, y; every boundary pixel by default) of a 0/1 mask and their
     hierarchy."""
-    contours, hierarchy = cv2.findContours(np.pad(mask.astype(np.uint8), 1), mode, chain)
+    padded = cv2.copyMakeBorder(mask.astype(np.uint8), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    contours, hierarchy = cv2.findContours(padded, mode, chain)
     return [c.reshape(-1, 2) - 1 for c in contours], (None if hierarchy is None else hierarchy[0])
 
 
@@ -58,7 +59,7 @@ def _splice(ring: list[tuple[int, int]], at: int, loop: list[tuple[int, int]]) -
 
 
 def _rotated(points: np.ndarray, start: int) -> list[tuple[int, int]]:
-    return [(int(x), int(y)) for x, y in np.roll(points, -start, axis=0)]
+    return list(map(tuple, np.roll(points, -start, axis=0).tolist()))
 
 
 def _cut_up(ring: list[tuple[int, int]], hole: np.ndarray, mask: np.ndarray) -> list[tuple[int, int]]:
@@ -243,10 +244,10 @@ def _drawing_order(entries: list[dict[str, Any]], owner: np.ndarray, chains: lis
     hard = np.zeros(n, np.int64)  # instances of its class with a lower id not yet placed
     for a, e in enumerate(entries):
         x, y, w, h = e["box"]
-        under = owner[y:y + h, x:x + w][e["drawn"]]
-        values, counts = np.unique(under[(under >= 0) & (under != a)], return_counts=True)
-        for b, c in zip(values.tolist(), counts.tolist()):
-            succ[a][b] = c
+        counts = np.bincount(owner[y:y + h, x:x + w][e["drawn"]] + 1, minlength=n + 1)[1:]  # -1: no entry
+        counts[a] = 0
+        for b in np.flatnonzero(counts).tolist():
+            succ[a][b] = c = int(counts[b])
             soft[b] += c
     after: dict[int, int] = {}
     for chain in chains:
