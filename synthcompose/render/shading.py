@@ -38,15 +38,26 @@ def device_shading(renderer_name: str) -> str:
 PRECISIONS = ("half", "full")
 
 
-def multisampled(gl: GLContext, size: tuple[int, int], precision: str = "half"):
+def framebuffer(gl: GLContext, colours: Sequence, depth=None,
+                viewport: tuple[int, int, int, int] | None = None) -> moderngl.Framebuffer:
+    """A framebuffer of ``colours`` and ``depth`` (owned by ``gl``); ``viewport``: where its
+    draws map the region of interest (a band of it: :mod:`.bands`), None: onto the whole."""
+    fbo = gl.own(gl.ctx.framebuffer(list(colours), depth))
+    if viewport is not None:
+        fbo.viewport = viewport
+    return fbo
+
+
+def multisampled(gl: GLContext, size: tuple[int, int], precision: str = "half",
+                 viewport: tuple[int, int, int, int] | None = None):
     """The lit pass's 4x multisampled targets (irpv, alpha, odepth, plane, objc: lit.glsl's
-    outputs 0-4), their depth, and a framebuffer of them (:data:`PRECISIONS`)."""
+    outputs 0-4), their depth, and a framebuffer of them (:data:`PRECISIONS`, :func:`framebuffer`)."""
     ctx = gl.ctx
     colour = "f2" if precision == "half" else "f4"
     ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype=dtype))
           for c, dtype in ((4, colour), (1, colour), (1, "f4"), (2, "f4"), (4, colour))]
     ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
-    return ms, ms_depth, gl.own(ctx.framebuffer(ms, ms_depth))
+    return ms, ms_depth, framebuffer(gl, ms, ms_depth, viewport)
 
 
 class PerSample:
@@ -54,12 +65,13 @@ class PerSample:
 
     def __init__(self, gl: GLContext, lit: LitDraw, precision: str = "half") -> None:
         self.gl, self.lit, self.precision = gl, lit, precision
+        self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
         """Irpv's multisampled targets drawn (:func:`multisampled`), to resolve (``view`` and
         ``proj`` unused: the lit programs' uniforms carry them)."""
-        ms, ms_depth, ms_fbo = multisampled(self.gl, size, self.precision)
+        ms, ms_depth, ms_fbo = multisampled(self.gl, size, self.precision, self.viewport)
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.lit.draw(objects, lighting, objects_too=True)
@@ -100,6 +112,7 @@ class PerPixel:
                  gpu_model: Callable[[Model], GpuModel], precision: str = "half") -> None:
         self.gl, self.fill, self.lit, self.precision = gl, fill, lit, precision
         self._gpu_model = gpu_model
+        self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
@@ -114,8 +127,8 @@ class PerPixel:
         centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
         centre_depth = gl.own(ctx.depth_renderbuffer(size))
         object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
-        objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
-        planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
+        objects_fbo = framebuffer(gl, centre + [object_col, object_key], centre_depth, self.viewport)
+        planes_fbo = framebuffer(gl, [plane_col], centre_depth, self.viewport)
         # the nearest surface's depth first, so that lit.glsl shades each pixel once: the
         # objects' triangles overlap two to three deep, and llvmpipe shades every fragment that
         # passes the depth test when it comes (lit.glsl's objects are most of the pass)
@@ -133,7 +146,7 @@ class PerPixel:
             gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
         other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
-        others_fbo = gl.own(ctx.framebuffer([other_col, other_key]))
+        others_fbo = framebuffer(gl, [other_col, other_key])  # one triangle over the framebuffer
         textures = {"u_object_col": object_col, "u_object_key": object_key, "u_plane_col": plane_col,
                     "u_other_col": other_col, "u_other_key": other_key}
         units = {name: unit for unit, name in enumerate(textures, start=7)}
@@ -147,7 +160,7 @@ class PerPixel:
         ctx.enable(moderngl.DEPTH_TEST)
         gl.free(others_fbo)
         gl.wait()  # the freed targets are released once drawn: before the multisampled ones exist
-        ms, ms_depth, ms_fbo = multisampled(gl, size, self.precision)
+        ms, ms_depth, ms_fbo = multisampled(gl, size, self.precision, self.viewport)
         fill, fill_plane = self.fill.objects, self.fill.planes
         for prog in (fill, fill_plane):  # (the plane variant's texture: _fill_planes)
             prog["u_view"].write(gl_mat4(view))
@@ -172,7 +185,7 @@ class PerPixel:
         with fill.glsl, whose vertex stage computes the position as lit.glsl's does (the same
         products in the same order: the same depths, which the lit draw then tests with "<=")."""
         gl, ctx = self.gl, self.gl.ctx
-        fbo = gl.own(ctx.framebuffer(depth_attachment=depth))
+        fbo = framebuffer(gl, [], depth, self.viewport)
         fbo.use()
         fbo.clear(depth=1.0)
         fill, fill_plane = self.fill.objects, self.fill.planes
@@ -196,7 +209,7 @@ class PerPixel:
         gl.wait()  # the freed targets are released once Irpv's resolve is done: before these exist
         plane_ir = gl.texture(size, 4, dtype="f4")
         depth = gl.own(ctx.depth_renderbuffer(size))
-        fbo = gl.own(ctx.framebuffer([plane_ir], depth))
+        fbo = framebuffer(gl, [plane_ir], depth, self.viewport)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.lit.draw(objects, lighting, objects_too=False, shadows=False)
