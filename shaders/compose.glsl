@@ -37,6 +37,10 @@ uniform int u_blur_radius;         // its half width in pixels; 0: no blur
 uniform vec2 u_tone[16];           // camera look of object k: (gain, saturation) on its linear colour
 uniform sampler2D u_layer_obj;     // layers() of every pixel (the LAYERS pass), when blurring
 uniform sampler2D u_layer_bg;
+// a large region is composed in bands of rows (compose.Composer): the region's pixel at this
+// framebuffer's (0, 0), and at the layer textures' (0, 0); (0, 0) when it is done whole
+uniform ivec2 u_origin;
+uniform ivec2 u_layer_origin;
 
 uniform usampler2D u_ground;       // 1 where the real scene is ground the objects stand on
 uniform float u_ground_band;       // K sigma_d / (f B): the real ground's depth error is this * z^2
@@ -123,8 +127,8 @@ void layers(ivec2 q, out vec4 obj, out vec3 bg) {
 // The layers of every pixel come from the LAYERS pass (u_layer_obj, u_layer_bg): worked out
 // once per pixel instead of once per pixel and tap.
 vec3 blurred(ivec2 p, out float cover) {
-    vec4 obj0 = texelFetch(u_layer_obj, p, 0);
-    vec3 bg0 = texelFetch(u_layer_bg, p, 0).rgb;
+    vec4 obj0 = texelFetch(u_layer_obj, p - u_layer_origin, 0);
+    vec3 bg0 = texelFetch(u_layer_bg, p - u_layer_origin, 0).rgb;
     bool covered = obj0.a >= 0.999;
     ivec2 hi = textureSize(u_photo, 0) - 1;
     if (!covered) {
@@ -149,8 +153,8 @@ vec3 blurred(ivec2 p, out float cover) {
             float w = exp(k * float(dx * dx + dy * dy));
             wsum += w;
             if (!covered && texelFetch(u_alpha, q, 0).r == 0.0) continue;  // nothing to add
-            vec4 obj = texelFetch(u_layer_obj, q, 0);
-            vec3 bg = texelFetch(u_layer_bg, q, 0).rgb;
+            vec4 obj = texelFetch(u_layer_obj, q - u_layer_origin, 0);
+            vec3 bg = texelFetch(u_layer_bg, q - u_layer_origin, 0).rgb;
             acc += w * obj;
             if (covered && obj.a < 0.999) {
                 bg_acc += w * (1.0 - obj.a) * bg;
@@ -171,7 +175,7 @@ layout(location = 1) out vec4 out_bg;
 void main() {
     vec4 obj;
     vec3 bg;
-    layers(ivec2(gl_FragCoord.xy), obj, bg);
+    layers(ivec2(gl_FragCoord.xy) + u_origin, obj, bg);
     out_obj = obj;
     out_bg = vec4(bg, 1.0);
 }
@@ -188,7 +192,7 @@ layout(location = 4) out uint out_visible;   // object index where it is seen, e
 // composite comes from the LAYERS pass's layers, not from this pixel's fetch); RGB_ONLY for a
 // view whose labels are not written (the right view of a stereo pair): the colour alone.
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 p = ivec2(gl_FragCoord.xy) + u_origin;
 #if defined BLUR
     float cover;
     vec3 rgb = blurred(p, cover);

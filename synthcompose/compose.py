@@ -23,6 +23,7 @@ from .gl import GLContext
 from .labels import label_ids
 from .lighting.camera import CameraMatch
 from .render import RenderPasses
+from .render.bands import row_bands
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi
@@ -35,6 +36,19 @@ MAX_OBJECTS = 15
 #: share of the depth: the ground cannot hide what stands on it (a crest that would is rare
 #: within the few metres an object and its shadow cover)
 GROUND_TOL_REL = 0.05
+
+
+#: the compose's integer outputs after the colour: name, dtype (the texture's: 8 or 16 bits)
+OUTPUTS = (("label_ids", np.uint8), ("instance_ids", np.uint16), ("disparity", np.uint16), ("visible", np.uint8))
+
+
+def _uint_texture(gl: GLContext, size: tuple[int, int], values: np.ndarray) -> moderngl.Texture:
+    """An unsigned integer texture of ``values`` (>= 0) in 8, 16 or 32 bits, the fewest that hold
+    them (a usampler2D reads the same numbers from each)."""
+    top = int(values.max()) if values.size else 0
+    dtype = next((d for d, limit in (("u1", 0xFF), ("u2", 0xFFFF)) if top <= limit), "u4")
+    return gl.texture(size, 1, np.ascontiguousarray(values, {"u1": np.uint8, "u2": np.uint16}.get(dtype, np.uint32)),
+                      dtype=dtype)
 
 
 def label_mask(labels: np.ndarray, ids) -> np.ndarray:
@@ -117,15 +131,15 @@ class Composer:
         size = (roi.width, roi.height)
         match = match or CameraMatch()
         prog, vao = self._variant(blur=match.blur_radius > 0, rgb_only=rgb_only)
-        made = {
+        made = {  # integer layers in as few bytes as hold them (read as uint all the same)
             "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
-            "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_ground": gl.texture(size, 1, np.zeros((roi.height, roi.width), np.uint32) if scene.ground is None
-                                   else scene.ground[rows, cols].astype(np.uint32), dtype="u4"),
+            "u_labels": _uint_texture(gl, size, scene.label_ids[rows, cols]),
+            "u_ground": _uint_texture(gl, size, np.zeros((roi.height, roi.width), np.uint8) if scene.ground is None
+                                      else scene.ground[rows, cols]),
         }
         if not rgb_only:
-            made["u_instances"] = gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4")
-            made["u_disparity"] = gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4")
+            made["u_instances"] = _uint_texture(gl, size, scene.instance_ids[rows, cols])
+            made["u_disparity"] = _uint_texture(gl, size, scene.disparity[rows, cols])
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
         noise_on = any(v > 0 for v in match.noise_sigma)
@@ -155,16 +169,6 @@ class Composer:
             if "u_ground_band" in p:
                 p["u_ground_band"].value = float(scene.ground_band)
                 p["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
-        layers = []
-        if match.blur_radius:  # each pixel's layers once, for the blur's taps to read
-            layers = [gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")]
-            layers_fbo = gl.own(ctx.framebuffer(layers))
-            layers_fbo.use()
-            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-            self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
-            gl.free(layers_fbo)
-            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
-                tex.use(prog[name].value)
         cls = np.zeros(16, np.uint32)
         cls[1:len(classes) + 1] = classes
         inst = np.zeros(16, np.uint32)
@@ -178,27 +182,57 @@ class Composer:
         if not rgb_only:
             prog["u_class"].write(cls.tobytes())
             prog["u_instance"].write(inst.tobytes())
-
-        # the outputs: rgb, then (not rgb_only) label, instance, disparity, visible index
-        outs = [gl.texture(size, 4, dtype="f1")]
+        h, w = roi.height, roi.width
+        out = {"rgb": np.empty((h, w, 3), np.uint8)}
         if not rgb_only:
-            outs += [gl.texture(size, 1, dtype=dtype) for dtype in ("u1", "u2", "u2", "u1")]
+            out |= {name: np.empty((h, w), dtype) for name, dtype in OUTPUTS}
+        # band by band (one band below BAND_PIXELS): the blur's layers and the outputs exist for
+        # one band at a time; the layers of the band and of the blur's reach around it
+        for y0, y1 in row_bands(w, h):
+            self._band(prog, vao, size, (y0, y1), match.blur_radius, rgb_only, out)
+        for tex in made.values():
+            gl.free(tex)
+        if not rgb_only:
+            out["instance_ids"] = out["instance_ids"].astype(np.int32)
+        return out
+
+    def _band(self, prog: moderngl.Program, vao: moderngl.VertexArray, size: tuple[int, int], band: tuple[int, int],
+              radius: int, rgb_only: bool, out: dict[str, np.ndarray]) -> None:
+        """Compose rows ``band`` of the region (``size``) into ``out``'s rows."""
+        gl, ctx = self.gl, self.gl.ctx
+        w, (y0, y1) = size[0], band
+        layers = []
+        if radius:  # each pixel's layers once, for the blur's taps to read
+            l0, l1 = max(y0 - radius, 0), min(y1 + radius, size[1])
+            layers = [gl.texture((w, l1 - l0), 4, dtype="f4"), gl.texture((w, l1 - l0), 4, dtype="f4")]
+            layers_fbo = gl.own(ctx.framebuffer(layers))
+            layers_fbo.use()
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.layers_prog["u_origin"].value = (0, l0)
+            self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
+            gl.free(layers_fbo)
+            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
+                tex.use(prog[name].value)
+            prog["u_layer_origin"].value = (0, l0)
+        if "u_origin" in prog:
+            prog["u_origin"].value = (0, y0)
+        # the outputs: rgb, then (not rgb_only) label, instance, disparity, visible index
+        bsize = (w, y1 - y0)
+        outs = [gl.texture(bsize, 4, dtype="f1")]
+        if not rgb_only:
+            outs += [gl.texture(bsize, 1, dtype="u1" if dtype == np.uint8 else "u2") for _, dtype in OUTPUTS]
         fbo = gl.own(ctx.framebuffer(outs))
         fbo.use()
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         vao.render(moderngl.TRIANGLES, vertices=3)
         gl.wait()
-        h, w = roi.height, roi.width
-        out = {"rgb": np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]}
+        out["rgb"][y0:y1] = np.frombuffer(outs[0].read(), np.uint8).reshape(y1 - y0, w, 4)[..., :3]
         if not rgb_only:
-            for (name, dtype), tex in zip((("label_ids", np.uint8), ("instance_ids", np.uint16),
-                                           ("disparity", np.uint16), ("visible", np.uint8)), outs[1:]):
-                out[name] = np.frombuffer(tex.read(alignment=1), dtype).reshape(h, w)
-            out["instance_ids"] = out["instance_ids"].astype(np.int32)
+            for (name, dtype), tex in zip(OUTPUTS, outs[1:]):
+                out[name][y0:y1] = np.frombuffer(tex.read(alignment=1), dtype).reshape(y1 - y0, w)
         gl.free(fbo)
-        for tex in outs + layers + list(made.values()):
+        for tex in outs + layers:
             gl.free(tex)
-        return out
 
     def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
                 instances: Sequence[int], match: CameraMatch | None = None,
