@@ -76,3 +76,114 @@ def test_png_filters_keep_the_pixels(png_filter):
             back = cv2.cvtColor(back, cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
         assert back.dtype == img.dtype and np.array_equal(back, img)
     assert set(PNG_FILTER_OF.values()) <= set(PNG_FILTERS)
+
+
+# ------------------------------------------------------------------ the renderer's cheaper paths
+def _board(name: str, quads) -> "Model":
+    """A model of flat quads facing -x (the camera), each (corners, colour) a part of its own."""
+    from synthcompose.models import MeshPart, Model
+
+    parts = []
+    for corners, colour in quads:
+        n = len(corners)
+        parts.append(MeshPart(
+            positions=np.asarray(corners, np.float32), normals=np.tile([-1.0, 0.0, 0.0], (n, 1)).astype(np.float32),
+            uvs=np.zeros((n, 2), np.float32), colors=np.tile([*colour, 1.0], (n, 1)).astype(np.float32),
+            material=np.tile([0.0, 0.9], (n, 1)).astype(np.float32),
+            indices=np.array([[0, 1, 2], [0, 2, 3]], np.uint32), texture=None))
+    return Model(name, tuple(parts), (0.4, 2.0, 1.8))
+
+
+def _render_passes(gl, model, names=("irpv", "ir", "alpha", "odepth", "plane", "objc", "id", "id_depth"), **kw):
+    from synthcompose.render import Lighting, RenderObject, Renderer
+
+    from .test_geometry import make_camera
+
+    renderer = Renderer(gl, shading="pixel")
+    pose = np.eye(4)
+    pose[:3, 3] = (9.0, 0.0, 0.0)
+    light = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.5)
+    passes = renderer.render(make_camera(), [RenderObject(model, pose, (0.2, 0.2, 0.2))], light, **kw)
+    out = {name: passes.read(name).copy() for name in names}
+    renderer.release(passes)
+    return out
+
+
+def test_depth_prepass_keeps_the_first_drawn_of_coplanar_parts(gl_clean):
+    """Two parts in one plane, overlapping: the first in the file is seen, as with a single
+    forward pass and a strict depth test (the pre-pass draws the lit pass in reverse with <=)."""
+    quad = [[0, 1.0, 0.3], [0, -1.0, 0.3], [0, -1.0, 1.8], [0, 1.0, 1.8]]
+    red, blue = (0.6, 0.05, 0.05), (0.05, 0.1, 0.6)
+    for first, second in ((red, blue), (blue, red)):
+        p = _render_passes(gl_clean, _board(f"coplanar-{first}", [(quad, first), (quad, second)]), names=("objc",))
+        inside = p["objc"][..., 3] >= 0.999
+        assert inside.sum() > 5000
+        rgb = p["objc"][inside][:, :3]
+        wanted = 0 if first == red else 2  # the first part's strongest channel
+        assert (rgb.argmax(axis=1) == wanted).all()
+
+
+def test_banded_render_keeps_coverage_and_ids_and_the_shading_to_rounding(gl_clean, monkeypatch):
+    import synthcompose.render.renderer as renderer_module
+    from synthcompose.render import bands
+
+    board = _board("banded", [([[0, 1.0, 0.3], [0, -0.2, 0.3], [0, 0.35, 1.8], [0, 1.0, 1.8]], (0.6, 0.05, 0.05)),
+                              ([[0, -0.2, 0.3], [0, -1.0, 0.3], [0, -1.0, 1.8], [0, 0.35, 1.8]], (0.05, 0.1, 0.6))])
+    photo = np.random.default_rng(5).integers(0, 256, (320, 640, 3), np.uint8)
+    whole = _render_passes(gl_clean, board, photo=photo)
+    monkeypatch.setattr(renderer_module, "row_bands", lambda w, h: bands.row_bands(w, h, 3000))
+    banded = _render_passes(gl_clean, board, photo=photo)
+    assert len(bands.row_bands(whole["id"].shape[1], whole["id"].shape[0], 3000)) >= 5
+    for name in ("alpha", "id", "id_depth"):
+        assert np.array_equal(whole[name], banded[name]), name
+    for name in ("irpv", "ir", "objc", "odepth", "plane"):
+        diff = np.abs(whole[name] - banded[name])
+        assert np.quantile(diff, 0.999) <= 1e-3 and diff.max() <= 0.5, (name, diff.max())
+
+
+def test_right_view_compose_gives_the_colour_of_the_full_one(gl_clean):
+    from synthcompose.compose import Composer
+    from synthcompose.lighting import CameraMatch
+
+    from .test_compose import W, H, _passes, _scene
+
+    rng = np.random.default_rng(9)
+    alpha = rng.random((H, W)).astype(np.float32)
+    alpha[:, : W // 2] = 0.0
+    passes = _passes(gl_clean, rng.random((H, W, 3), np.float32), rng.random((H, W, 3), np.float32), alpha,
+                     (alpha > 0.5).astype(np.uint32))
+    passes.textures["objc"] = gl_clean.texture((W, H), 4, np.dstack([rng.random((H, W, 3)), alpha]).astype(np.float32),
+                                               dtype="f4")
+    scene = _scene(rng, np.inf)
+    comp = Composer(gl_clean)
+    for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
+        full = comp.compose_roi(passes, scene, [26], [26000], match)
+        right = comp.compose_roi(passes, scene, [26], [26000], match, rgb_only=True)
+        assert set(right) == {"rgb"} and np.array_equal(full["rgb"], right["rgb"])
+
+
+def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
+    import synthcompose.compose as compose_module
+    from synthcompose.compose import Composer
+    from synthcompose.lighting import CameraMatch
+    from synthcompose.render import bands
+
+    from .test_compose import W, H, _passes, _scene
+
+    rng = np.random.default_rng(4)
+    alpha = rng.random((H, W)).astype(np.float32)
+    alpha[rng.random((H, W)) < 0.5] = 0.0
+    passes = _passes(gl_clean, rng.random((H, W, 3), np.float32), rng.random((H, W, 3), np.float32), alpha,
+                     (alpha > 0.5).astype(np.uint32))
+    passes.textures["objc"] = gl_clean.texture((W, H), 4, np.dstack([rng.random((H, W, 3)), alpha]).astype(np.float32),
+                                               dtype="f4")
+    scene = _scene(rng, np.inf)
+    comp = Composer(gl_clean)
+    for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
+        whole = comp.compose_roi(passes, scene, [26], [26000], match)
+        monkeypatch.setattr(compose_module, "row_bands", lambda w, h: bands.row_bands(w, h, 3 * W))
+        banded = comp.compose_roi(passes, scene, [26], [26000], match)
+        monkeypatch.undo()
+        assert whole.keys() == banded.keys()
+        for name in whole:
+            assert np.array_equal(whole[name], banded[name]), name
