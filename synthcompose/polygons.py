@@ -164,19 +164,22 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
     another entry would draw over it (a hole in a region).
     """
     label_ids = np.asarray(label_ids)
-    instance_ids = np.asarray(instance_ids).astype(np.int64)
+    instance_ids = np.asarray(instance_ids)
+    if instance_ids.dtype != np.int32:
+        instance_ids = instance_ids.astype(np.int64 if instance_ids.size and instance_ids.max() >= 2 ** 31 else np.int32)
     # each pixel's segment: its instance id, or its label id (a class without instances, a group)
     segment = np.where(instance_ids >= INSTANCE_FACTOR, instance_ids, label_ids)
     values = np.flatnonzero(np.bincount(segment.ravel()))
     lookup = np.zeros(int(values[-1]) + 1, np.int32)
-    lookup[values] = np.arange(values.size)
+    lookup[values] = np.arange(1, values.size + 1)  # 1 + the segment's place in values: find_objects' labels
     index = lookup[segment]
+    del segment
     owner = np.full(label_ids.shape, -1, np.int32)  # the entry each pixel belongs to
     entries: list[dict[str, Any]] = []  # label, polygon, box (x, y, w, h), drawn area in the box
     chains: dict[int, list[int]] = defaultdict(list)  # class -> its instances' entries, by id
-    for k, box in enumerate(find_objects(index + 1)):
+    for k, box in enumerate(find_objects(index)):
         value = int(values[k])
-        own_box = index[box] == k
+        own_box = index[box] == k + 1
         y0, x0 = box[0].start, box[1].start
         if value >= INSTANCE_FACTOR:  # an instance: one entry
             poly = mask_polygon(own_box, min_part_pixels=1)  # a speck left out would show what lies under it
