@@ -7,7 +7,8 @@ convex), at the real size the catalogue entry gives (VwV-StVO size 2). The face 
 retroreflective sheeting: fairly matte, a little gloss; its white is kept below paper white
 (:data:`FACE_ALBEDO`). The plate's folded rim and its back are painted grey (RAL 7043, as the
 VwV-StVO asks: grey backs), the pole is a 76 mm galvanised steel tube, the plates held on it
-by two clamps each. Supplementary signs hang under the main one; the lowest plate's lower
+by two clamps each; the pole and clamps are labelled "pole" (:attr:`MeshPart.label`), as
+Cityscapes labels them. Supplementary signs hang under the main one; the lowest plate's lower
 edge is ``lower_edge_m`` above the ground (VwV-StVO: 2.0 m over a footway, 2.25 m over a cycle
 path, as a rule).
 
@@ -34,13 +35,17 @@ STANDOFF = 0.03
 PLATE_GAP = 0.04
 #: the pole ends this share of the top plate's height above that plate's centre (behind it)
 POLE_TOP = 0.3
-#: the face's colour factor (linear): retroreflective white sheeting reflects about 0.5-0.8
-#: of daylight diffusely (EN 12899-1 asks at least 0.35 of its white); (metallic, roughness)
-FACE_ALBEDO = 0.75
+#: the face's colour factor (linear): retroreflective white sheeting reflects 0.27-0.5 of
+#: daylight diffusely (EN 12899-1 asks at least 0.27 of class RA2's white, 0.35 of RA1's; a
+#: sign's face gathers dirt), so that the face's white sits among the real signs' whites
+#: (measured against the footway's tone on the development frames: docs/cast.md)
+FACE_ALBEDO = 0.45
 FACE_MATERIAL = (0.0, 0.45)
 #: the back and rim (RAL 7043 traffic grey B) and the galvanised pole and clamps: sRGB, (metallic, roughness)
 BACK_SRGB, BACK_MATERIAL = (0.31, 0.33, 0.32), (0.0, 0.6)
-POLE_SRGB, POLE_MATERIAL = (0.60, 0.62, 0.61), (0.35, 0.5)
+POLE_SRGB, POLE_MATERIAL = (0.45, 0.46, 0.46), (0.3, 0.55)
+#: Cityscapes labels a sign's plate "traffic sign" and the pole that carries it "pole"
+POLE_LABEL = "pole"
 
 
 @dataclass(frozen=True)
@@ -115,9 +120,9 @@ def _plate_parts(plate: Plate, centre_z: float, front_x: float) -> list[MeshPart
 
 
 def _metal(positions, normals, faces) -> MeshPart:
-    """A galvanised part (pole, clamp)."""
+    """A galvanised part (pole, clamp), labelled "pole" as Cityscapes labels a sign's pole."""
     col, mat = _uniform(len(positions), POLE_SRGB, POLE_MATERIAL)
-    return _finish_part(positions, normals, np.zeros((len(positions), 2)), col, mat, faces, None)
+    return _finish_part(positions, normals, np.zeros((len(positions), 2)), col, mat, faces, None, label=POLE_LABEL)
 
 
 def _tube(radius: float, height: float, sections: int = 20) -> MeshPart:

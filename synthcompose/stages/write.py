@@ -42,6 +42,8 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     for k, (obj, look) in enumerate(zip(s.placed.objects, s.looks), start=1):
         pl, spec = obj.placement, obj.spec
         mask = visible == k
+        if any(p.label for p in obj.model.parts):  # its own class's pixels, not those of a part labelled apart
+            mask &= s.composed.label_ids == label_id(spec.class_name)
         bbox = mask_box(mask)
         visible_pixels = int(mask.sum())
         out.append(ObjectRecord(
