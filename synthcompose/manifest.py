@@ -232,6 +232,8 @@ def _cast_objects(path: Path, name: str) -> list[ObjectSpec]:
 def parse_manifest(data: Any, path: Path) -> Manifest:
     """Validate ``data`` (parsed JSON) and resolve it; raises :class:`ManifestError` naming the field."""
     path = Path(path)
+    if isinstance(data, dict) and "objects" not in data and "cast" not in data:
+        raise ManifestError(path, "field 'objects' is required (or a built-in cast: \"cast\": \"street\")")
     validator = jsonschema.Draft202012Validator(SCHEMA)
     errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
     if errors:
