@@ -71,11 +71,13 @@ def _face(path: str) -> tuple[np.ndarray, np.ndarray]:
     except (OSError, UnidentifiedImageError) as exc:
         raise ModelError(path, f"sign face cannot be read as an image ({exc})") from None
     h, w = tex.shape[:2]
-    rows, cols = np.nonzero(tex[..., 3] >= 128)
-    if len(rows) < 16:
+    opaque = (tex[..., 3] >= 128).astype(np.uint8)
+    contours, _ = cv2.findContours(opaque, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    if opaque.sum() < 16 or not contours:
         raise ModelError(path, "sign face has no opaque shape (alpha channel)")
-    # the pixels' outer corners: the hull of the shape, not of the pixel centres
-    pts = np.concatenate([np.column_stack([cols + dx, rows + dy]) for dx in (0, 1) for dy in (0, 1)])
+    # the outer pixels' corners: the hull of the shape, not of the pixel centres
+    edge = np.concatenate(contours)[:, 0, :]
+    pts = np.concatenate([edge + [dx, dy] for dx in (0, 1) for dy in (0, 1)])
     hull = cv2.convexHull(pts.astype(np.float32))
     hull = cv2.approxPolyDP(hull, 0.35, True)[:, 0, :].astype(np.float64)
     uv = hull / [w, h]
@@ -170,20 +172,27 @@ def sign_model(plates: tuple[Plate, ...], lower_edge_m: float = 2.0,
     if not plates:
         raise ValueError("a sign needs at least one plate")
     front_x = POLE_RADIUS + STANDOFF + PLATE_DEPTH
-    parts: list[MeshPart] = []
+    # faces, then the grey rims, then the metal: the plain parts run together in a draw each
+    # (the lit pass's runs of parts with the same maps, the id pass's runs of one label)
+    faces: list[MeshPart] = []
+    rims: list[MeshPart] = []
+    metal: list[MeshPart] = []
     top = lower_edge_m + sum(p.height_m for p in plates) + PLATE_GAP * (len(plates) - 1)
     edge = top
     centres = []
     for plate in plates:
         centre = edge - plate.height_m / 2
         centres.append(centre)
-        parts += _plate_parts(plate, centre, front_x)
+        face, rim = _plate_parts(plate, centre, front_x)
+        faces.append(face)
+        rims.append(rim)
         for dz in (-0.3, 0.3):  # two clamps: a bar from the pole's axis to the plate's back
             z = centre + dz * plate.height_m
-            parts.append(_box((0.0, -0.025, z - 0.0175), (front_x - PLATE_DEPTH, 0.025, z + 0.0175)))
+            metal.append(_box((0.0, -0.025, z - 0.0175), (front_x - PLATE_DEPTH, 0.025, z + 0.0175)))
         edge -= plate.height_m + PLATE_GAP
     pole_top = centres[0] + POLE_TOP * plates[0].height_m
-    parts.append(_tube(POLE_RADIUS, pole_top))
+    metal.append(_tube(POLE_RADIUS, pole_top))
+    parts = faces + rims + metal
     codes = "+".join(p.code for p in plates)
     key = f"sign:{codes}|{lower_edge_m:.3f}|{size}"
     real = (("height", float(max(top, pole_top))),)
