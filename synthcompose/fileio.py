@@ -296,7 +296,7 @@ def loads_json(text: str, path: str | Path = "<json>") -> Any:
     except json.JSONDecodeError as exc:
         raise InputError(path, f"is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
     except RecursionError:
-        raise InputError(path, f"is nested too deeply (more than {MAX_JSON_DEPTH} levels)") from None
+        raise InputError(path, f"is nested more than {MAX_JSON_DEPTH} levels deep") from None
     except ValueError as exc:  # NaN, Infinity; an integer of thousands of digits
         if "integer string conversion" in str(exc):
             raise InputError(path, "holds an integer of more than 4300 digits (numbers are used as 64-bit floats, "

@@ -205,7 +205,7 @@ def _polygons(text: str):
 JSON_BREAKAGES = {
     "integer too large for a float": (_number("fx", "1" + "0" * 400), "number at 'intrinsic/fx' is too large"),
     "exponent beyond a float": (_number("baseline", "1e999"), "number at 'extrinsic/baseline' is beyond the range"),
-    "arrays thousands deep": (_number("u0", "[" * 5000 + "]" * 5000), "is nested too deeply"),
+    "arrays thousands deep": (_number("u0", "[" * 5000 + "]" * 5000), "is nested more than 64 levels deep"),
     "arrays a hundred deep": (_number("v0", "[" * 100 + "]" * 100), "is nested more than 64 levels deep"),
     "numbers as strings": (_number("fy", '"2262.5"'), "camera JSON 'intrinsic.fy' must be a finite number, found '2262.5' (a string)"),
     "a key twice": (_camera(lambda raw: raw.replace('"fx":', '"fx": 1, "fx":', 1)),
