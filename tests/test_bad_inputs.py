@@ -286,7 +286,7 @@ def _truncated_texture(folder: Path) -> str:
 
 
 @pytest.mark.parametrize("make, says", [
-    (lambda d: _obj(d / "flat.obj", "v 0 0 0\nv 4 0 0\nv 0 0 2\nv 4 0 2\nf 1 2 3\nf 2 4 3\n"), "is flat: its "),
+    (lambda d: _obj(d / "flat.obj", "v 0 0 0\nv 4 0 0\nv 0 0 2\nv 4 0 2\nf 1 2 3\nf 2 4 3\n"), "is flat: its height is 0"),
     (lambda d: _obj(d / "zero.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 1\nf 1 2 3\nf 1 1 4\n"),
      "has no surface: all its 2 triangles have zero area"),
     (lambda d: _gltf_with_index(d / "indices.gltf", 9), "has a face index 9 out of range: its mesh has 4 vertices"),

@@ -215,18 +215,18 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
     return Model(key, tuple(out), tuple(float(e * scale) for e in ext))
 
 
-#: a model whose extent along an axis is below this share of its largest is flat; one whose
+#: a model whose height is below this share of its largest extent is flat; one whose
 #: triangles' area is below this share of its largest extent squared has no surface to draw
 FLAT_SHARE = 1e-6
 
 
 def _check_solid(path, parts: list[MeshPart], pos: list[np.ndarray], ext: np.ndarray) -> None:
-    """Refuse a model nothing of which would be seen: flat along an axis (an object has a
-    length, a width and a height), or all of whose triangles have zero area."""
-    for axis, name in enumerate(("length", "width", "height")):
-        if ext[axis] <= FLAT_SHARE * ext.max():
-            raise ModelError(path, f"is flat: its {name} is {float(ext[axis]):.3g} in its own units, against "
-                                   f"{float(ext.max()):.3g} for its largest side (no object is flat)")
+    """Refuse a model nothing of which would be seen: flat, lying on the ground (no height:
+    a street camera sees it edge-on or not at all; a standing plate, a sign's, may be thin),
+    or all of whose triangles have zero area."""
+    if ext[2] <= FLAT_SHARE * ext.max():
+        raise ModelError(path, f"is flat: its height is {float(ext[2]):.3g} in its own units, against "
+                               f"{float(ext.max()):.3g} for its largest side (check 'up': the model's up axis)")
     area = 0.0
     for p, q in zip(parts, pos):
         _check_indices(path, p.indices, len(q))
