@@ -58,20 +58,28 @@ def available_memory() -> int | None:
     return min(found) if found else None
 
 
+#: worker processes per core at the most: beyond a few they only share the cores (and the GPU)
+WORKERS_PER_CORE = 4
+
+
 def worker_count(requested: int) -> tuple[int, str | None]:
-    """The local worker processes to start for ``--workers requested`` and a note saying why when
-    it is not what was asked: 0 means one per core; no more than the cores (a worker renders on
-    them; more would only share them) nor than the memory free holds at :data:`WORKER_BYTES` each."""
+    """The local worker processes to start for ``--workers requested`` and a note when it is not
+    what was asked or more than the cores: 0 means one per core; at most :data:`WORKERS_PER_CORE`
+    per core, and no more than the memory free holds at :data:`WORKER_BYTES` each. More workers
+    than cores run (a worker waits on its GPU or its writes part of the time) with a note."""
     cores = usable_cores()
     want = cores if requested == 0 else requested
     memory = available_memory()
     by_memory = max(1, memory // WORKER_BYTES) if memory is not None else want
-    n = max(1, min(want, cores, by_memory))
+    n = max(1, min(want, WORKERS_PER_CORE * cores, by_memory))
     if n < want:
-        why = f"{cores} cores" if n == cores else f"{memory / 2**30:.1f} GiB free, ~1 GiB each"
+        why = f"{cores} cores, {WORKERS_PER_CORE} each" if n == WORKERS_PER_CORE * cores \
+            else f"{memory / 2**30:.1f} GiB free, ~1 GiB each"
         return n, f"--workers {requested}: {n} worker(s), as many as this machine allows ({why})"
     if requested == 0:
         return n, f"--workers 0: one per core, {n}"
+    if n > cores:
+        return n, f"--workers {requested}: more workers than the {cores} cores; they share them"
     return n, None
 
 

@@ -375,8 +375,10 @@ def test_worker_counts_are_one_per_core_for_0_and_capped_by_cores_and_memory(mon
     monkeypatch.setattr(engines, "available_memory", lambda: 64 << 30)
     assert engines.worker_count(0) == (4, "--workers 0: one per core, 4")
     assert engines.worker_count(3) == (3, None)
+    n, note = engines.worker_count(6)
+    assert n == 6 and "more workers than the 4 cores" in note  # they run, sharing the cores
     n, note = engines.worker_count(10**9)
-    assert n == 4 and "4 cores" in note
+    assert n == 16 and "4 cores, 4 each" in note
     monkeypatch.setattr(engines, "available_memory", lambda: int(2.5 * 2**30))
     n, note = engines.worker_count(4)
     assert n == 2 and "2.5 GiB free" in note
