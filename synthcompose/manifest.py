@@ -11,20 +11,23 @@ from pathlib import Path
 from typing import Any
 
 import jsonschema
+from cityscapesscripts.helpers.labels import name2label
 
 from .cast import CAST_PREFIX, CASTS, CastEntry, entry_digest, load_catalogue
 from .errors import ManifestError
 from .fileio import read_json
-from .labels import label_id
+from .labels import INSERTABLE
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
-from .placement.rules import orientation_for, surfaces_for
+from .placement.rules import GROUND_LEVEL, orientation_for, surfaces_for
 from .lighting.light import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
-_POS = {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}  # metres: nothing larger is an object
-#: split and city names: one folder level, no path tricks ("..", "/")
-_NAME = {"type": "string", "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*$"}
+_POS = {"type": "number", "minimum": 0.01, "maximum": 1000}  # metres: nothing smaller or larger is an object
+#: split and city names: one folder level, no path tricks ("..", "/", "\\") nor control
+#: characters, no space at either end; spaces and letters of any script are names too
+#: ("bad homburg", "münchen", "Zürich-Nord")
+_NAME = {"type": "string", "pattern": r"^(?!\.\.?$)(?!\s)(?![\s\S]*\s$)[^/\\\x00-\x1f\x7f]+$"}
 
 SCHEMA: dict[str, Any] = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -37,7 +40,7 @@ SCHEMA: dict[str, Any] = {
         "output": {"type": "string", "minLength": 1, "description": "output root (Cityscapes layout)"},
         "splits": {"type": "array", "items": _NAME, "minItems": 1, "uniqueItems": True},
         "cities": {"type": "array", "items": _NAME, "uniqueItems": True},
-        "frames": {"type": "array", "items": {"type": "string", "pattern": r"^[A-Za-z0-9-]+_\d+_\d+$"},
+        "frames": {"type": "array", "items": {"type": "string", "pattern": r"^(?!\s)(?![\s\S]*\s$)[^_/\\\x00-\x1f\x7f]+_[0-9]+_[0-9]+$"},
                    "uniqueItems": True},
         "limit": {"type": "integer", "minimum": 1},
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
@@ -77,14 +80,15 @@ SCHEMA: dict[str, Any] = {
                 "distance": {"type": "array", "items": {"type": "number", "minimum": 0, "maximum": 10_000},
                              "minItems": 2, "maxItems": 2},
                 "max_attempts": {"type": "integer", "minimum": 1, "maximum": 1_000_000},
-                "yaw_jitter_deg": {"type": "number", "minimum": 0},
+                "yaw_jitter_deg": {"type": "number", "minimum": 0, "maximum": 180},
                 "min_footprint_allowed": {"type": "number", "minimum": 0, "maximum": 1},
-                "clearance": {"type": "number", "minimum": 0},
-                "object_gap": {"type": "number", "minimum": 0},
-                "min_visible_pixels": {"type": "integer", "minimum": 0},
+                "clearance": {"type": "number", "minimum": 0, "maximum": 10},
+                "object_gap": {"type": "number", "minimum": 0, "maximum": 100},
+                # an object no pixel of which is seen is never written (stages/write.py)
+                "min_visible_pixels": {"type": "integer", "minimum": 1, "maximum": 1 << 30},
                 "max_occluded_fraction": {"type": "number", "minimum": 0, "maximum": 1},
                 "allow_truncation": {"type": "boolean"},
-                "parked_kerb_gap": {"type": "number", "minimum": 0},
+                "parked_kerb_gap": {"type": "number", "minimum": 0, "maximum": 10},
             },
         },
         "lighting": {
@@ -94,7 +98,7 @@ SCHEMA: dict[str, Any] = {
                 # light; "fixed" (also: the sun_* keys without a mode) uses one light for all
                 "mode": {"enum": ["estimate", "fixed"]},
                 "sun_elevation_deg": {"type": "number", "minimum": 1, "maximum": 90},
-                "sun_azimuth_deg": {"type": "number"},
+                "sun_azimuth_deg": {"type": "number", "minimum": -360, "maximum": 360},
                 "sun_fraction": {"type": "number", "minimum": 0, "maximum": 1},
                 "match_exposure": {"type": "boolean"},
                 "camera_match": {"type": "boolean"},
@@ -175,8 +179,24 @@ class Manifest:
         return self._hash[0]
 
 
+#: what a field must be, said after the schema's own message about it
+_HINTS = {"seed": " (the seed is a whole number from 0 to 2**63 - 1)",
+          "limit": " (a whole number of image sets, 1 or more)",
+          "objects_per_image": " (a whole number from 1 to 15)"}
+
+
 def _where(err: jsonschema.ValidationError) -> str:
     return "/".join(str(p) for p in err.absolute_path) or "(top level)"
+
+
+def _message(err: jsonschema.ValidationError) -> str:
+    """The schema's message, said in words where it would show a regular expression, with what
+    the field must be where a hint helps."""
+    if err.validator == "pattern":
+        what = "a frame name <city>_<seq>_<frame>" if err.absolute_path[0] == "frames" else "a folder name"
+        return (f"{err.instance!r} is not {what} (one folder level: no '/', '\\', '.' or '..', no control "
+                "character, no space at either end)")
+    return err.message + _HINTS.get(_where(err), "")
 
 
 def _whole_numbers(schema: dict, value: Any) -> Any:
@@ -190,6 +210,23 @@ def _whole_numbers(schema: dict, value: Any) -> Any:
     if isinstance(value, list):
         return [_whole_numbers(schema.get("items", {}), v) for v in value]
     return value
+
+
+def _check_class(path: Path, i: int, name: str) -> None:
+    """An object's class must be a Cityscapes thing (:data:`~.labels.INSERTABLE`): ``sky`` or
+    ``road`` would be written as labels no object has, ``unlabeled`` as nothing."""
+    if name not in INSERTABLE:
+        what = "is not a Cityscapes class" if name not in name2label else \
+            f"is Cityscapes' {name2label[name].category!r} class, not a thing an object can be"
+        raise ManifestError(path, f"field 'objects/{i}/class': {name!r} {what}; one of {', '.join(map(repr, INSERTABLE))}")
+
+
+def _check_surfaces(path: Path, where: str, surfaces) -> None:
+    """An object's allowed surfaces must be grounds (:data:`~.placement.rules.GROUND_LEVEL`)."""
+    for surface in surfaces:
+        if surface not in GROUND_LEVEL:
+            raise ManifestError(path, f"field '{where}/allowed_surfaces': {surface!r} is not a ground an "
+                                      f"object can stand on; one of {', '.join(map(repr, GROUND_LEVEL))}")
 
 
 def _pool(path: Path, where: str, selector: str, o: dict) -> ObjectSpec:
@@ -206,11 +243,7 @@ def _pool(path: Path, where: str, selector: str, o: dict) -> ObjectSpec:
     if o.get("class", classes[0]) != classes[0]:
         raise ManifestError(path, f"field '{where}/class': cast {selector!r} is class {classes[0]!r}, "
                                   f"not {o['class']!r}")
-    for surface in o.get("allowed_surfaces", []):
-        try:
-            label_id(surface)
-        except KeyError as exc:
-            raise ManifestError(path, f"field '{where}/allowed_surfaces': {exc.args[0]}") from None
+    _check_surfaces(path, where, o.get("allowed_surfaces", []))
     return ObjectSpec(
         name=o.get("name", selector), model=CAST_PREFIX + selector, class_name=classes[0],
         size=tuple((k, float(v)) for k, v in o.get("size", {}).items()), up="+z", forward="+x",
@@ -237,7 +270,7 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
     validator = jsonschema.Draft202012Validator(SCHEMA)
     errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
     if errors:
-        msgs = "; ".join(f"field '{_where(e)}': {e.message}" for e in errors[:5])
+        msgs = "; ".join(f"field '{_where(e)}': {_message(e)}" for e in errors[:5])
         raise ManifestError(path, msgs)
     data = _whole_numbers(SCHEMA, data)  # 2.0 where an integer is asked (JSON Schema accepts it) -> 2
     base = path.parent
@@ -246,15 +279,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         if o["model"].startswith(CAST_PREFIX):
             objects.append(_pool(path, f"objects/{i}", o["model"][len(CAST_PREFIX):], o))
             continue
-        try:
-            label_id(o["class"])
-        except KeyError as exc:
-            raise ManifestError(path, f"field 'objects/{i}/class': {exc.args[0]}") from None
-        for surface in o.get("allowed_surfaces", []):
-            try:
-                label_id(surface)
-            except KeyError as exc:
-                raise ManifestError(path, f"field 'objects/{i}/allowed_surfaces': {exc.args[0]}") from None
+        _check_class(path, i, o["class"])
+        _check_surfaces(path, f"objects/{i}", o.get("allowed_surfaces", []))
         model = o["model"] if o["model"].startswith(BUILTIN_PREFIX) else str((base / o["model"]).resolve())
         objects.append(ObjectSpec(
             name=o.get("name", Path(o["model"]).stem), model=model, class_name=o["class"],

@@ -19,7 +19,7 @@ import jsonschema
 
 from ..errors import ModelError
 from ..fileio import read_json
-from ..labels import label_id
+from ..labels import INSERTABLE
 
 #: a manifest's ``"model": "cast:<selector>"`` draws from the catalogue
 CAST_PREFIX = "cast:"
@@ -120,10 +120,9 @@ def _entry(path: Path, group: str) -> CastEntry:
         raise ModelError(path, "; ".join(f"field '{w}': {e.message}" for w, e in zip(where, errors)))
     if data["id"] != path.parent.name:
         raise ModelError(path, f"id {data['id']!r} must be the name of its folder ({path.parent.name!r})")
-    try:
-        label_id(data["class"])
-    except KeyError as exc:
-        raise ModelError(path, f"field 'class': {exc.args[0]}") from None
+    if data["class"] not in INSERTABLE:
+        raise ModelError(path, f"field 'class': {data['class']!r} is not a Cityscapes class an object can be; "
+                               f"one of {', '.join(map(repr, INSERTABLE))}")
     folder = path.parent
     model = data["model"]
     if model != SIGN_MODEL:

@@ -18,7 +18,7 @@ from ..manifest import Manifest, ObjectSpec
 from ..models import Model, load_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
-from ..placements import SavedPlacement, saved_result
+from ..placements import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
 from .timing import timed
@@ -35,7 +35,8 @@ def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) ->
     existing += [i % INSTANCE_FACTOR for i in taken if i // INSTANCE_FACTOR == class_id]
     k = max(existing, default=-1) + 1
     if k >= INSTANCE_FACTOR:
-        raise SynthComposeError(f"no free instance id left for class {class_id}")
+        raise SynthComposeError(f"holds instance {class_id * INSTANCE_FACTOR + k - 1} of class {class_id} already: "
+                                f"no instance id is left for another (ids end at {class_id * INSTANCE_FACTOR + 999})")
     return class_id * INSTANCE_FACTOR + k
 
 
@@ -109,6 +110,8 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
             model, drawn = object_model(m, spec, ident.key, len(objects))
+            if saved is not None and (problem := pose_problem(frame, model.extents, saved.objects[k].matrix)):
+                raise InputError(saved.path, f"saved placement object {k} ({spec.name!r}) {problem}")
             others = [o.placement for o in objects]
             result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
                                   spec.orientation, others, trace=trace) \
@@ -126,7 +129,10 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
                 if why is not None:
                     check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
                     log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
-            inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+            try:
+                inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+            except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
+                raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
             taken.add(inst)
             objects.append(PlacedObject(spec, model, result, inst, check, drawn))
     noise = frame_noise(frame)

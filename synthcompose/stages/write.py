@@ -8,10 +8,12 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 
 from ..annotations import write_frame_annotations
 from ..fileio import encode_rle
 from ..dataset import ImageSetId
+from ..errors import SynthComposeError
 from ..labels import label_id
 from ..manifest import Manifest
 from ..render import mask_box
@@ -73,9 +75,22 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     return tuple(out)
 
 
+def check_visible(s: Shaded) -> None:
+    """Refuse to write an image set with an object no pixel of which is seen (hidden, too far,
+    or a model that draws nothing): it would be annotated with nothing, yet change the photo
+    (its shadow). Raised before any file is written; the image set fails, naming the object."""
+    counts = np.bincount(s.composed.visible.ravel(), minlength=len(s.placed.objects) + 1)
+    for k, obj in enumerate(s.placed.objects, start=1):
+        if counts[k] == 0:
+            raise SynthComposeError(f"{obj.spec.model}: object {k} ({obj.spec.name!r}, {obj.spec.class_name}) has 0 "
+                                    f"visible pixels once rendered ({int(s.rendered[k])} drawn before occlusion): "
+                                    "the image set is not written")
+
+
 def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, float]) -> Outcome:
-    """The image set's files, annotations and record (last)."""
+    """The image set's files, annotations and record (last); none with an unseen object."""
     composed = s.composed
+    check_visible(s)
     with timed(timings, "write"):
         write_outputs(m.output, ident, composed, s.camera_json, s.right_rgb)
         objects = object_records(s)
