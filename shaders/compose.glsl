@@ -16,7 +16,7 @@ uniform sampler2D u_ir;            // plane alone, linear
 uniform sampler2D u_alpha;         // object coverage
 uniform sampler2D u_odepth;        // coverage-weighted object depth
 uniform sampler2D u_plane;         // (coverage-weighted plane depth, plane coverage)
-uniform usampler2D u_id;           // object index at the pixel centre, 0 = none
+uniform usampler2D u_id;           // object index at the pixel centre (0 = none) | part label << 8
 uniform sampler2D u_id_depth;      // object depth at the pixel centre
 uniform sampler2D u_scene_depth;   // real depth, +inf where unknown
 uniform usampler2D u_labels;       // real label ids
@@ -62,7 +62,7 @@ vec2 tone_at(ivec2 q) {
     ivec2 hi = textureSize(u_id, 0) - 1;
     for (int i = 0; i < 9; ++i) {
         ivec2 r = clamp(q + ivec2((i + 4) % 3 - 1, (i + 4) / 3 % 3 - 1), ivec2(0), hi);
-        uint id = texelFetch(u_id, r, 0).r;
+        uint id = texelFetch(u_id, r, 0).r & 255u;
         if (id > 0u) return u_tone[id];
     }
     return vec2(1.0);
@@ -194,7 +194,9 @@ void main() {
     }
     out_rgb = vec4(srgb, 1.0);
 
-    uint id = texelFetch(u_id, p, 0).r;
+    uint raw = texelFetch(u_id, p, 0).r;
+    uint id = raw & 255u;
+    uint part = raw >> 8u;  // a part labelled apart from its object (a sign's pole): its class, no instance
     out_label = x.label;
     out_instance = texelFetch(u_instances, p, 0).r;
     out_disparity = texelFetch(u_disparity, p, 0).r;
@@ -202,8 +204,8 @@ void main() {
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
         if (in_front(od, x.sd, x.front, x.ground)) {
-            out_label = u_class[id];
-            out_instance = u_instance[id];
+            out_label = part > 0u ? part : u_class[id];
+            out_instance = part > 0u ? part : u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
             out_visible = id;
         }

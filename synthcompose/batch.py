@@ -27,6 +27,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
+from .cast import preload
 from .dataset import ImageSetId, input_fingerprint
 from .errors import ManifestError, SynthComposeError
 from .fileio import PART_TAG, write_json
@@ -177,7 +178,10 @@ def preflight(manifest: Manifest) -> None:
     """Load every model once before any work: a bad model file stops the batch at the start
     (with the file named) instead of failing every image set."""
     for spec in manifest.objects:
-        load_model(spec.model, spec.size, spec.up, spec.forward)
+        if spec.cast:
+            preload(spec.cast)
+        else:
+            load_model(spec.model, spec.size, spec.up, spec.forward)
 
 
 class OutputLock:

@@ -49,6 +49,8 @@ class MeshPart:
     normal_scale   : glTF normalTexture.scale, multiplies the map's x and y
     plate     : (W, H) px of the model's own plate texture when this part is a number plate
                 (its texture is dropped, its UVs kept): each object's plate is drawn on it
+    label     : the Cityscapes class of this part when it is not the object's (a sign's pole:
+                "pole"; a class without instances); None: the object's class
     """
 
     positions: np.ndarray
@@ -62,6 +64,7 @@ class MeshPart:
     normal_texture: np.ndarray | None = None
     normal_scale: float = 1.0
     plate: tuple[int, int] | None = None
+    label: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,7 +220,7 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
 
 
 def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
-                 normal_texture=None, normal_scale=1.0, plate=None) -> MeshPart:
+                 normal_texture=None, normal_scale=1.0, plate=None, label=None) -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
     glass = colors[:, 3] < 0.5
     if glass.any():  # transparent glass: render as dark glossy opaque surface
@@ -237,4 +240,5 @@ def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, t
         normal_texture=normal_texture,
         normal_scale=float(normal_scale),
         plate=plate,
+        label=label,
     )

@@ -8,7 +8,9 @@ import moderngl
 import numpy as np
 
 from ..gl import GLContext
+from ..labels import HAS_INSTANCES, label_id
 from ..models import Model
+from .values import PART_SHIFT
 
 #: the vertex buffer's attributes in order, with their float counts (models and the plane)
 VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_color", 4), ("in_material", 2))
@@ -112,6 +114,20 @@ class GpuModel(_Mesh):
         super().__init__(gl, np.concatenate(datas).tobytes(), np.concatenate(indices).tobytes(),
                          np.concatenate(tangents).tobytes() if has_tangents else None)
         self._programs = programs
+        #: (first index, index count, part label id or 0) of each id-pass draw: one per run of
+        #: parts with the same label (one draw for a model without part labels)
+        self.label_runs: list[tuple[int, int, int]] = []
+        start = 0
+        for idx, part in zip(indices, model.parts):
+            lid = 0 if part.label is None else label_id(part.label)
+            if lid and HAS_INSTANCES[lid]:
+                raise ValueError(f"part label {part.label!r}: only classes without instances label parts")
+            if self.label_runs and self.label_runs[-1][2] == lid:
+                f, n, _ = self.label_runs[-1]
+                self.label_runs[-1] = (f, n + len(idx), lid)
+            else:
+                self.label_runs.append((start, len(idx), lid))
+            start += len(idx)
         #: (first index, index count, maps) of each lit draw
         self.ranges: list[tuple[int, int, GpuMaps]] = []
         start = 0
@@ -127,3 +143,15 @@ class GpuModel(_Mesh):
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""
         self.vao(self._programs[name]).render(moderngl.TRIANGLES)
+
+    def draw_ids(self, index: int) -> None:
+        """The id pass of object ``index`` (its other uniforms set): each part's value is the
+        index, with its part label above :data:`PART_SHIFT` where it has one."""
+        prog = self._programs["id"]
+        if len(self.label_runs) == 1 and self.label_runs[0][2] == 0:
+            prog["u_id"].value = index
+            self.vao(prog).render(moderngl.TRIANGLES)
+            return
+        for first, count, lid in self.label_runs:
+            prog["u_id"].value = index | (lid << PART_SHIFT)
+            self.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)

@@ -125,7 +125,8 @@ class Renderer:
         return RenderPasses(roi, cam, tex, gl)
 
     def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
-        """The id pass: (uint object index 1..K at each pixel centre, 0 = none; its depth)."""
+        """The id pass: (uint object index 1..K at each pixel centre, 0 = none, with a part's
+        own label above gpu_model.PART_SHIFT; its depth)."""
         gl, ctx = self.gl, self.gl.ctx
         ids = gl.texture(size, 1, dtype="u4")
         id_depth = gl.texture(size, 1, dtype="f4")
@@ -139,8 +140,7 @@ class Renderer:
         idp["u_proj"].write(gl_mat4(proj))
         for k, obj in enumerate(objects, start=1):
             idp["u_model"].write(gl_mat4(obj.vehicle_from_object))
-            idp["u_id"].value = k
-            self._gpu_model(obj.model).draw("id")
+            self._gpu_model(obj.model).draw_ids(k)
         for obj in (id_fbo, id_depth_rb):
             gl.free(obj)
         return ids, id_depth

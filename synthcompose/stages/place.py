@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
+from ..cast import CastDraw, cast_model, cast_rng, draw_entry
 from ..dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
@@ -48,6 +49,7 @@ class PlacedObject:
     result: PlacementResult  # the pose and the candidates' rejections
     instance_id: int
     check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+    cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
 
     @property
     def placement(self) -> Placement:
@@ -75,6 +77,15 @@ def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
+def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int) -> tuple[Model, CastDraw | None]:
+    """The model of the ``index``-th object placed in image set ``key``: the spec's file or
+    builtin; or, for a cast pool, an entry drawn (and posed) with the cast's own generator."""
+    if not spec.cast:
+        return load_model(spec.model, spec.size, spec.up, spec.forward), None
+    rng = cast_rng(m.seed, key, index)
+    return cast_model(draw_entry(spec.cast, rng), spec.size or None, rng)
+
+
 def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     """With an input polygons file, the ids its entries number (cityscapesScripts counts them):
     an inserted instance appended after them gets the next."""
@@ -98,7 +109,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model = load_model(spec.model, spec.size, spec.up, spec.forward)
+            model, drawn = object_model(m, spec, ident.key, len(objects))
             if saved is not None and (problem := pose_problem(frame, model.extents, saved.objects[k].matrix)):
                 raise InputError(saved.path, f"saved placement object {k} ({spec.name!r}) {problem}")
             others = [o.placement for o in objects]
@@ -123,7 +134,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
             except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
                 raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
             taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check))
+            objects.append(PlacedObject(spec, model, result, inst, check, drawn))
     noise = frame_noise(frame)
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,

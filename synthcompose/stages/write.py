@@ -44,10 +44,13 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     for k, (obj, look) in enumerate(zip(s.placed.objects, s.looks), start=1):
         pl, spec = obj.placement, obj.spec
         mask = visible == k
+        if any(p.label for p in obj.model.parts):  # its own class's pixels, not those of a part labelled apart
+            mask &= s.composed.label_ids == label_id(spec.class_name)
         bbox = mask_box(mask)
         visible_pixels = int(mask.sum())
         out.append(ObjectRecord(
-            index=k, name=spec.name, model=spec.model, class_name=spec.class_name,
+            index=k, name=spec.name, model=spec.model if obj.cast is None else f"cast:{obj.cast.entry.id}",
+            class_name=spec.class_name,
             allowed_surfaces=tuple(spec.allowed_surfaces), orientation=spec.orientation,
             label_id=label_id(spec.class_name), instance_id=obj.instance_id, extents_m=tuple(pl.extents),
             pose=ObjectPose.of(pl.matrix, opt_from_v, pl.position, pl.yaw),
@@ -61,7 +64,8 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
             occluded_fraction=round(1.0 - visible_pixels / max(int(s.rendered[k]), 1), 4),
             truncated=pl.truncated,
             placement={"attempts": obj.result.attempts, "rejections": obj.result.rejections},
-            appearance=look.appearance.to_dict(),
+            appearance=look.appearance.to_dict() if obj.cast is None else
+            dict(obj.cast.appearance) | look.appearance.to_dict(),
             camera_look=None if look.camera_look is None else
             {k2: (round(v, 4) if isinstance(v, float) else v) for k2, v in look.camera_look.items()},
             placement_source="saved" if s.placed.saved is not None else "random",
