@@ -1,0 +1,293 @@
+"""The recipes of scripts/build_vehicles.py: per vehicle, which source files it reads and how each
+face is given its material role. Common steps (wheels at Chrono's axle positions, plates, glass
+winding, the interior) live in :class:`Build`."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from vehicle_mesh import (Mesh, concat, corner_samples, face_samples, git_image, git_read, in_box, plate_quad, plate_uvs,
+                          ray_hits, read_obj, smooth_normals, wind_outwards)
+
+
+@dataclass(frozen=True)
+class Source:
+    repo: str
+    commit: str
+    spdx: str
+    licence_path: str  # the licence text shipped beside each model (a path in the repository)
+    licence_note: str
+
+
+SOURCES = {
+    "chrono": Source("projectchrono/chrono", "7689fbc02d12c5419fa6acad8791100fd89979dd", "BSD-3-Clause", "LICENSE",
+                     "the repository's licence; its data files carry no statement of their own"),
+    "openmaterial": Source("LudwigFriedmann/OpenMATERIAL", "c1283d565efdbf9f8e4afdc0a593bcabb466378d",
+                           "CC-BY-SA-4.0", "", "model_structure/objects/README.md of that commit; ShareAlike: "
+                           "the converted model stays under CC-BY-SA 4.0"),
+    "gazebo": Source("osrf/gazebo_models", "8163eb4b5e7e21985c6591d1c0bfb56468c0093f", "CC-BY-3.0", "LICENSE",
+                     "the repository's LICENSE: Creative Commons Attribution 3.0 Unported"),
+}
+
+
+class Build:
+    """What a recipe reads (recorded for SOURCE.txt) and the steps recipes share."""
+
+    def __init__(self, gits: dict[str, Path]) -> None:
+        self.gits = gits
+        self.read: list[str] = []
+
+    # -------------------------------------------------------------- reading
+    def bytes(self, source: str, path: str) -> bytes:
+        if path not in self.read:
+            self.read.append(path)
+        return git_read(self.gits[source], SOURCES[source].commit, path)
+
+    def obj(self, source: str, path: str) -> Mesh:
+        return read_obj(self.bytes(source, path))
+
+    def image(self, source: str, path: str, mode: str = "RGB", size: int | None = None) -> np.ndarray:
+        self.bytes(source, path)
+        img = git_image(self.gits[source], SOURCES[source].commit, path, mode)
+        if size and img.shape[0] != size:
+            from PIL import Image
+            img = np.asarray(Image.fromarray((img * 255).astype(np.uint8)).resize((size, size)), np.float32) / 255
+        return img
+
+    def json(self, source: str, path: str) -> dict:
+        return json.loads(self.bytes(source, path))
+
+    def licence_text(self, source: str) -> bytes:
+        s = SOURCES[source]
+        if s.licence_path:
+            return git_read(self.gits[source], s.commit, s.licence_path)
+        return CC_BY_SA_4.encode()
+
+    # -------------------------------------------------------------- shared steps
+    def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None) -> dict[str, Mesh]:
+        """Rims and tyres at the wheel centres of a Chrono JSON vehicle: each axle's suspension
+        location plus its spindle's COM (y mirrored for the right), the wheel's and tyre's meshes
+        as Chrono places them (the file's mesh on the left, turned 180 degrees about z on the
+        right). The tyres' lowest 1.5 % of radius are flattened: the contact patch."""
+        vehicle = self.json("chrono", f"data/vehicle/{vehicle_json}")
+        rims, tyres = [], []
+        for axle in vehicle["Axles"]:
+            susp = self.json("chrono", f"data/vehicle/{axle['Suspension Input File']}")
+            spindle = np.asarray(susp["Spindle"]["COM"], float)
+            loc = np.asarray(axle["Suspension Location"], float)
+            wheel = self.json("chrono", f"data/vehicle/{axle['Left Wheel Input File']}")
+            rim = self.obj("chrono", f"data/vehicle/{wheel['Visualization']['Mesh Filename']}")
+            tyre = self.obj("chrono", f"data/vehicle/{tyre_obj}")
+            r = tyre.vertices[:, 2].max()
+            tyre.vertices[:, 2] = np.maximum(tyre.vertices[:, 2], -r * 0.985)
+            for side in (1, -1):
+                centre = loc + spindle * np.array([1.0, side, 1.0])
+                rot = np.eye(3) if side > 0 else np.diag([-1.0, -1.0, 1.0])
+                rims.append(rim.transformed(rot, centre))
+                tyres.append(tyre.transformed(rot, centre))
+        return {"rim": concat(rims), "tyre": concat(tyres)}
+
+
+def add_plates(parts: dict[str, Mesh], plates: list[tuple], width: float = 0.52,
+               height: float = 0.11) -> dict[str, Mesh]:
+    """EU number plates (520 x 110 mm) added at the front (sign +1) and the rear (-1): each
+    (sign, centre z[, centre y]) stands 5 mm proud of the outermost body surface that rays from
+    outside meet over its face."""
+    body = concat([m for k, m in parts.items() if not k.startswith("glass")])
+    new = []
+    for sign, z, *rest in plates:
+        y = rest[0] if rest else 0.0
+        hits = []
+        for dy in (-width / 2, 0.0, width / 2):
+            for dz in (-height / 2, 0.0, height / 2):
+                t = ray_hits(body, (sign * 20.0, y + dy, z + dz), (-sign, 0.0, 0.0))
+                if len(t):
+                    hits.append(sign * (20.0 - t[0]))
+        if not hits:
+            raise SystemExit(f"no body surface found for the plate at x sign {sign}, z {z}")
+        x = sign * (max(h * sign for h in hits) + 0.005)
+        new.append(plate_quad((x, y, z), (sign, 0.0, 0.0), width, height))
+    return merge(parts, {"plate": concat(new)})
+
+
+def split(mesh: Mesh, roles: np.ndarray) -> dict[str, Mesh]:
+    """The mesh's faces by role (``roles`` (M,) object array; "" and "delete" dropped)."""
+    return {r: mesh.select(roles == r) for r in np.unique(roles) if r not in ("", "delete")}
+
+
+def merge(*dicts: dict[str, Mesh]) -> dict[str, Mesh]:
+    out: dict[str, list[Mesh]] = {}
+    for d in dicts:
+        for k, m in d.items():
+            out.setdefault(k, []).append(m)
+    return {k: concat(v) for k, v in out.items()}
+
+
+def finish(parts: dict[str, Mesh]) -> dict[str, Mesh]:
+    """The steps every vehicle ends with: glass wound to face out of the vehicle; plates given
+    UVs over each plate (front and rear separately)."""
+    body = concat(list(parts.values()))
+    centre = (body.vertices.min(0) + body.vertices.max(0)) / 2
+    for name in list(parts):
+        if name.startswith("glass"):
+            parts[name] = wind_outwards(parts[name], centre)
+    if "plate" in parts and len(parts["plate"].faces):
+        plate = parts["plate"]
+        front = plate.centroids()[:, 0] > centre[0]
+        parts["plate"] = concat([plate_uvs(plate.select(front)), plate_uvs(plate.select(~front))])
+    return parts
+
+
+@dataclass(frozen=True)
+class Recipe:
+    title: str
+    source: str
+    folder: str
+    cls: str
+    kind: str
+    length: float
+    weight: float
+    make: Callable[[Build], tuple[dict[str, Mesh], dict[str, np.ndarray]]]
+    changes: tuple[str, ...] = field(default=())
+
+
+# ------------------------------------------------------------------ the Audi (Chrono data/vehicle/audi)
+AUDI = "data/vehicle/audi"
+
+
+def make_audi(b: Build):
+    body = b.obj("chrono", f"{AUDI}/audi_chassis.obj")
+    b.bytes("chrono", f"{AUDI}/audi_chassis.mtl")
+    tex = f"{AUDI}/textures/Audi_Whole_Texturing_031021_Chassis1_BaseColor_"
+    variants = [b.image("chrono", tex + v, size=1024) for v in ("Red.jpg", "Blue.png", "Green.png")]
+    opacity = b.image("chrono", f"{AUDI}/textures/Chassis1_Opacity.jpg", "L")
+    aux = b.image("chrono", f"{AUDI}/textures/Audi_Whole_Texturing_031021_Interior_Aux_BaseColor.jpg")
+    # paint: the texels the paint variants disagree on
+    paint_mask = np.max([np.abs(v - variants[0]).max(-1) for v in variants[1:]], axis=0) > 0.08
+    roles = np.full(len(body.faces), "", object)
+    chassis = body.groups == "phong1SG"
+    col = face_samples(variants[0], body)
+    op = face_samples(opacity, body)
+    paint = face_samples(paint_mask.astype(np.float32), body) > 0.5
+    lum = col.mean(axis=1)
+    red = (col[:, 0] > 0.35) & (col[:, 1] < 0.15)
+    roles[chassis] = "plastic"
+    roles[chassis & (lum > 0.4)] = "chrome"
+    roles[chassis & (op < 0.75) & (lum > 0.3)] = "light_white"
+    roles[chassis & red] = "light_red"
+    roles[chassis & paint] = "paint"
+    # glass: the navy texels (the opacity map marks the windscreen and front panes 0.4, the rear
+    # window 0.6, the rear side panes not at all: clear in front, tinted behind), found by the
+    # face's centroid or a corner, so that a pane reaches its frame without a jagged border
+    navy = lambda c: (c[..., 2] - c[..., 0] > 0.04) & (c.mean(axis=-1) < 0.2)
+    pane = chassis & (navy(col) | navy(corner_samples(variants[0], body)).any(axis=1))
+    roles[pane] = "glass_privacy"
+    roles[pane & (op < 0.5)] = "glass"
+    inner = ~chassis
+    acol = face_samples(aux, body)
+    alum = acol.mean(axis=1)
+    roles[inner] = "plastic"
+    # the source's plates (a US-sized plate with a blue band) and the four rings: deleted; EU
+    # plates are added in their place
+    band = (acol[:, 2] > 0.6) & (acol[:, 0] < 0.3)
+    grey = (np.abs(acol - 0.78) < 0.08).all(axis=1)
+    roles[inner & (band | grey | (alum > 0.9))] = "delete"
+    parts = merge(split(body, roles), b.chrono_wheels("audi/json/audi_Vehicle.json", "audi/audi_tire.obj"))
+    parts = add_plates(parts, [(1, 0.30), (-1, 0.61)])
+    return finish(parts), {}
+
+
+def lamp_roles(col: np.ndarray) -> np.ndarray:
+    """Lamp faces by their texel colour: red lenses, amber lenses, clear lenses over reflectors
+    (bright), housings (dark)."""
+    r, g, bl = col[:, 0], col[:, 1], col[:, 2]
+    roles = np.full(len(col), "plastic", object)
+    roles[col.mean(axis=1) > 0.25] = "light_white"
+    roles[(r > 0.35) & (g < 0.25) & (bl < 0.25)] = "light_red"
+    roles[(r > 0.45) & (g > 0.2) & (g < 0.6) & (bl < 0.2)] = "light_amber"
+    return roles
+
+
+def paint_mask(images: list[np.ndarray], threshold: float = 0.08) -> np.ndarray:
+    """Texels where the source's paint variants disagree: the paint."""
+    return np.max([np.abs(v - images[0]).max(-1) for v in images[1:]], axis=0) > threshold
+
+
+def textured_wheels(b: Build, vehicle_json: str, tyre_obj: str, texture: str) -> tuple[dict, dict]:
+    """Chrono wheels whose rim is a textured disc: the rim keeps the wheel texture, the tyre is rubber."""
+    wheels = b.chrono_wheels(vehicle_json, tyre_obj)
+    image = (b.image("chrono", texture) * 255).astype(np.uint8)
+    return {"textured.wheel": wheels["rim"], "tyre": wheels["tyre"]}, {"textured.wheel": image}
+
+
+# ------------------------------------------------------------------ the Nissan Patrol (Chrono data/vehicle/Nissan_Patrol)
+PATROL = "data/vehicle/Nissan_Patrol"
+
+
+def make_patrol(b: Build):
+    body = b.obj("chrono", f"{PATROL}/suv_chassis.obj")
+    b.bytes("chrono", f"{PATROL}/suv_chassis.mtl")
+    t = f"{PATROL}/textures/Nissan_Chassis_"
+    variants = [b.image("chrono", t + v, size=2048) for v in
+                ("OBJ_0331_Nissan_Chassis_BaseColor.jpg", "BaseColor_Red.jpg", "BaseColor_Brown.jpg")]
+    opacity = b.image("chrono", t + "Opacity.jpg", "L", size=2048)
+    exterior = b.image("chrono", t + "OBJ_0331_Nissan_Exterior_BaseColor.jpg")
+    lights = b.image("chrono", t + "OBJ_0331_Nissan_Lights_BaseColor.jpg")
+    roles = np.full(len(body.faces), "plastic", object)
+    g = body.groups
+    chassis = g == "lambert5SG"
+    col = face_samples(variants[0], body)
+    paint = face_samples(paint_mask(variants).astype(np.float32), body) > 0.5
+    roles[chassis & (col.mean(axis=1) > 0.5)] = "chrome"
+    roles[chassis & paint] = "paint"
+    pane = chassis & ((face_samples(opacity, body) < 0.6) | (corner_samples(opacity, body) < 0.6).any(axis=1))
+    roles[pane] = "glass"
+    ext = g == "lambert6SG"
+    ecol = face_samples(exterior, body)
+    roles[ext & (np.abs(ecol - 0.65).max(axis=1) < 0.08)] = "paint"  # the flares and bumpers: body colour
+    old_plate = ext & (ecol.mean(axis=1) > 0.85)  # the source's (US) plates
+    roles[old_plate] = "delete"
+    c = body.centroids()
+    # the off-road kit: the roof rack and the bull bar in front of the grille (and its lamps)
+    roles[ext & ((c[:, 2] > 1.5) | ((c[:, 0] > 0.6) & (c[:, 2] > 0.55)))] = "delete"
+    lamps = np.isin(g, ["lambert2SG", "lambert3SG", "lambert4SG"])
+    roles[lamps] = lamp_roles(face_samples(lights, body))[lamps]
+    roles[lamps & (c[:, 0] > 0.72)] = "delete"
+    roles[lamps & (c[:, 0] < -3.5)] = "light_red"  # the tail lamps (the source's lamp texture is grey)
+    # the headlamps: silver texels of the body's atlas at the front
+    silver = (corner_samples(variants[0], body).mean(axis=-1) > 0.5).any(axis=1) & ~paint
+    roles[chassis & silver & (c[:, 0] > 0.3) & (c[:, 2] > 0.35) & (c[:, 2] < 0.75)] = "light_white"
+    roles[g == "lambert8SG"] = "interior"
+    roles[g == "lambert7SG"] = "tyre"  # the spare wheel on the tailgate
+    wheels, textures = textured_wheels(b, "Nissan_Patrol/json/suv_Vehicle.json", "Nissan_Patrol/suv_tire.obj",
+                                       f"{PATROL}/textures/Nissan_Chassis_OBJ_0331_Nissan_Wheel_BaseColor.jpg")
+    parts = merge(split(body, roles), wheels)
+    # the rear plate in the tailgate's recess left of the spare wheel (its place measured on the mesh)
+    parts = add_plates(parts, [(1, 0.45), (-1, 0.585, 0.6)])
+    return finish(parts), textures
+
+
+RECIPES = {
+    "chrono-audi": Recipe(
+        "Four-door saloon (a liftback of the Audi A7 kind), Project Chrono's 'audi' vehicle", "chrono",
+        "data/vehicle/audi/", "car", "saloon", 4.88, 1.0, make_audi,
+        ("converted from OBJ + textures to one GLB; every face given a material role by its texels "
+         "(paint where the five paint variants differ, glass where the opacity map is below 0.45, lamps, trim)",
+         "the brand's rings deleted", "rims and tyres added at the axle positions of json/audi_Vehicle.json")),
+    "chrono-patrol": Recipe(
+        "Large off-road SUV (a Nissan Patrol Y61), Project Chrono's 'Nissan_Patrol' vehicle", "chrono",
+        "data/vehicle/Nissan_Patrol/", "car", "suv", 5.33, 0.5, make_patrol,
+        ("converted from OBJ + textures to one GLB; faces given material roles by their texels "
+         "(paint where the paint variants differ, glass by the opacity map, lamps by colour)",
+         "the source's plate deleted, EU plates added", "rims and tyres added at the axle positions of "
+         "json/suv_Vehicle.json")),
+}
+
+
+CC_BY_SA_4 = """Creative Commons Attribution-ShareAlike 4.0 International (CC BY-SA 4.0)
+https://creativecommons.org/licenses/by-sa/4.0/legalcode
+"""
