@@ -32,17 +32,19 @@ DEBUG = {"paint": (0.5, 0.5, 0.5), "glass": (0.0, 0.2, 0.9), "glass_privacy": (0
          "chrome": (0.0, 0.9, 0.9), "plastic": (0.3, 0.0, 0.3), "rubber": (0.1, 0.0, 0.1),
          "light_red": (1.0, 0.0, 0.0), "light_amber": (1.0, 0.4, 0.0), "light_white": (1.0, 1.0, 1.0),
          "plate": (0.0, 1.0, 0.0), "interior": (0.5, 0.25, 0.0), "underbody": (0.2, 0.2, 0.2),
-         "mirror": (0.0, 0.5, 0.5), "textured": (1.0, 0.0, 1.0)}
+         "mirror": (0.0, 0.5, 0.5), "textured": (1.0, 0.0, 1.0), "white": (0.9, 0.9, 0.7),
+         "livery": (0.9, 0.8, 0.5), "livery_band": (0.3, 0.3, 0.5), "canvas": (0.4, 0.6, 0.4)}
 
 
 def build(recipe_id: str, gits: dict[str, Path], out_root: Path, debug: bool = False) -> dict:
     recipe = RECIPES[recipe_id]
     build = Build(gits)
-    parts, textures = recipe.make(build)
+    made = recipe.make(build)
+    parts, textures = made[0], made[1]
+    factors = made[2] if len(made) > 2 else {}
     out = out_root / recipe_id
     out.mkdir(parents=True, exist_ok=True)
     model = out / f"{recipe_id.split('-', 1)[1]}.glb"
-    factors = None
     if debug:
         factors = {name: ((*DEBUG[name.split('.')[0]], 1.0), 0.0, 0.8) for name in parts}
         textures = {k: v for k, v in textures.items() if k == "plate"}

@@ -34,7 +34,13 @@ MATERIALS = {
     "interior": ((0.036, 0.035, 0.034, 1.0), 0.0, 0.85),
     "underbody": ((0.025, 0.025, 0.025, 1.0), 0.0, 0.9),
     "mirror": ((0.6, 0.6, 0.6, 1.0), 1.0, 0.04),
-    "textured": ((0.999, 0.999, 0.999, 1.0), 0.0, 0.5),  # the source's own texture kept (trim, grilles)
+    "textured": ((0.999, 0.999, 0.999, 1.0), 0.0, 0.5),
+    # fixed colours: a second paint (a two-tone roof), a bus's or lorry's livery (named "livery":
+    # appearance.py leaves a vehicle with one in its colours)
+    "white": ((0.68, 0.68, 0.66, 1.0), 0.0, 0.3),
+    "livery": ((0.62, 0.6, 0.52, 1.0), 0.0, 0.3),
+    "livery_band": ((0.03, 0.032, 0.036, 1.0), 0.0, 0.3),
+    "canvas": ((0.16, 0.17, 0.165, 1.0), 0.0, 0.85),  # a lorry's tarpaulin  # the source's own texture kept (trim, grilles)
 }
 #: the number plate's own image (blank white, the EU size 520 x 110 mm): the renderer draws each
 #: object's plate over its UVs at this aspect (synthcompose/plates.py)

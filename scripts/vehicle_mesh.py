@@ -146,6 +146,51 @@ def smooth_normals(mesh: Mesh) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
 
 
+def crease_normals(mesh: Mesh, angle_deg: float = 35.0) -> Mesh:
+    """The mesh with normals made again: at each corner, the area-weighted normals of the faces
+    around its position that turn less than ``angle_deg`` from its own face (smooth panels, sharp
+    creases). Corners are split where their normals differ."""
+    _, weld = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
+    weld = weld.ravel()
+    tri = mesh.vertices[mesh.faces]
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length: twice the area
+    unit = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-12)
+    corner_face = np.repeat(np.arange(len(mesh.faces)), 3)
+    corner_pos = weld[mesh.faces].ravel()
+    # every (corner, face around its position) pair
+    order = np.argsort(corner_pos, kind="stable")
+    starts = np.searchsorted(corner_pos[order], np.arange(weld.max() + 2))
+    counts = starts[1:] - starts[:-1]
+    reps = counts[corner_pos]
+    corner_idx = np.repeat(np.arange(len(corner_pos)), reps)
+    offs = np.arange(len(corner_idx)) - np.repeat(np.cumsum(reps) - reps, reps)
+    other = corner_face[order[starts[corner_pos[corner_idx]] + offs]]
+    keep = np.einsum("ij,ij->i", unit[corner_face[corner_idx]], unit[other]) > np.cos(np.radians(angle_deg))
+    acc = np.zeros((len(corner_pos), 3))
+    np.add.at(acc, corner_idx[keep], fn[other[keep]])
+    normals = acc / np.maximum(np.linalg.norm(acc, axis=1, keepdims=True), 1e-12)
+    corners = mesh.faces.ravel()
+    key = np.concatenate([mesh.vertices[corners], mesh.uvs[corners], np.round(normals, 4)], axis=1)
+    uniq, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return Mesh(mesh.vertices[corners[first]], inverse.reshape(-1, 3), normals[first], mesh.uvs[corners[first]],
+                mesh.groups.copy())
+
+
+def decimate(mesh: Mesh, faces: int) -> Mesh:
+    """An untextured mesh reduced to about ``faces`` triangles by quadric edge collapse
+    (fast-simplification, a build-time dependency only), normals made again (35 degree creases)."""
+    if len(mesh.faces) <= faces:
+        return mesh
+    import fast_simplification
+
+    points, weld = np.unique(np.round(mesh.vertices, 6), axis=0, return_inverse=True)
+    tris = weld.ravel()[mesh.faces]
+    out_pts, out_tris = fast_simplification.simplify(points, tris, target_reduction=1.0 - faces / len(tris))
+    reduced = Mesh(np.asarray(out_pts, float), np.asarray(out_tris, np.int64), np.zeros_like(out_pts),
+                   np.zeros((len(out_pts), 2)), np.full(len(out_tris), mesh.groups[0] if len(mesh.groups) else "", object))
+    return crease_normals(reduced)
+
+
 # ------------------------------------------------------------------ textures at faces
 def sample(image: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """``image`` (H, W[, C]) at OBJ UVs (v up; wrapped), nearest texel."""

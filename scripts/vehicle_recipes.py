@@ -4,13 +4,15 @@ winding, the interior) live in :class:`Build`."""
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from vehicle_mesh import (Mesh, concat, corner_samples, face_samples, git_image, git_read, in_box, plate_quad, plate_uvs,
+from vehicle_glb import MATERIALS
+from vehicle_mesh import (Mesh, concat, corner_samples, crease_normals, decimate, face_samples, git_image, git_read, in_box, plate_quad, plate_uvs,
                           ray_hits, read_obj, smooth_normals, wind_outwards)
 
 
@@ -59,7 +61,9 @@ class Build:
         return img
 
     def json(self, source: str, path: str) -> dict:
-        return json.loads(self.bytes(source, path))
+        """A JSON file; // comments (which Chrono's reader allows) are stripped first."""
+        text = self.bytes(source, path).decode("utf-8")
+        return json.loads(re.sub(r"//[^\n]*", "", text))
 
     def licence_text(self, source: str) -> bytes:
         s = SOURCES[source]
@@ -68,7 +72,7 @@ class Build:
         return CC_BY_SA_4.encode()
 
     # -------------------------------------------------------------- shared steps
-    def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None) -> dict[str, Mesh]:
+    def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 0) -> dict[str, Mesh]:
         """Rims and tyres at the wheel centres of a Chrono JSON vehicle: each axle's suspension
         location plus its spindle's COM (y mirrored for the right), the wheel's and tyre's meshes
         as Chrono places them (the file's mesh on the left, turned 180 degrees about z on the
@@ -79,16 +83,21 @@ class Build:
             susp = self.json("chrono", f"data/vehicle/{axle['Suspension Input File']}")
             spindle = np.asarray(susp["Spindle"]["COM"], float)
             loc = np.asarray(axle["Suspension Location"], float)
-            wheel = self.json("chrono", f"data/vehicle/{axle['Left Wheel Input File']}")
+            twin = "Left Outside Wheel Input File" in axle  # twin tyres: outside and inside of the spindle
+            wheel = self.json("chrono", f"data/vehicle/{axle['Left Outside Wheel Input File' if twin else 'Left Wheel Input File']}")
             rim = self.obj("chrono", f"data/vehicle/{wheel['Visualization']['Mesh Filename']}")
+            if rim_faces:
+                rim = decimate(rim, rim_faces)
             tyre = self.obj("chrono", f"data/vehicle/{tyre_obj}")
             r = tyre.vertices[:, 2].max()
             tyre.vertices[:, 2] = np.maximum(tyre.vertices[:, 2], -r * 0.985)
+            offsets = [(0.0, 1)] if not twin else [(axle["Wheel Separation"] / 2, 1), (-axle["Wheel Separation"] / 2, -1)]
             for side in (1, -1):
-                centre = loc + spindle * np.array([1.0, side, 1.0])
-                rot = np.eye(3) if side > 0 else np.diag([-1.0, -1.0, 1.0])
-                rims.append(rim.transformed(rot, centre))
-                tyres.append(tyre.transformed(rot, centre))
+                for dy, facing in offsets:
+                    centre = loc + spindle * np.array([1.0, side, 1.0]) + np.array([0.0, side * dy, 0.0])
+                    rot = np.eye(3) if side * facing > 0 else np.diag([-1.0, -1.0, 1.0])
+                    rims.append(rim.transformed(rot, centre))
+                    tyres.append(tyre.transformed(rot, centre))
         return {"rim": concat(rims), "tyre": concat(tyres)}
 
 
@@ -136,10 +145,19 @@ def finish(parts: dict[str, Mesh]) -> dict[str, Mesh]:
         if name.startswith("glass"):
             parts[name] = wind_outwards(parts[name], centre)
     if "plate" in parts and len(parts["plate"].faces):
-        plate = parts["plate"]
-        front = plate.centroids()[:, 0] > centre[0]
-        parts["plate"] = concat([plate_uvs(plate.select(front)), plate_uvs(plate.select(~front))])
+        parts = plates_with_uvs(parts, centre)
     return parts
+
+
+def plates_with_uvs(parts: dict[str, Mesh], centre) -> dict[str, Mesh]:
+    """Each plate's faces that face out of the vehicle (front plate forward, rear plate back) get
+    UVs over that plate; the plate's other faces (its edges and back) become plastic."""
+    plate = parts.pop("plate")
+    c, n = plate.centroids(), plate.face_normals()
+    front = c[:, 0] > centre[0]
+    out = np.where(front, n[:, 0], -n[:, 0]) > 0.7
+    faces = [plate_uvs(plate.select(out & side)) for side in (front, ~front) if (out & side).any()]
+    return merge(parts, {"plate": concat(faces), "plastic": plate.select(~out)})
 
 
 @dataclass(frozen=True)
@@ -151,7 +169,7 @@ class Recipe:
     kind: str
     length: float
     weight: float
-    make: Callable[[Build], tuple[dict[str, Mesh], dict[str, np.ndarray]]]
+    make: Callable[[Build], tuple]  # -> (parts, textures[, material overrides])
     changes: tuple[str, ...] = field(default=())
 
 
@@ -271,6 +289,139 @@ def make_patrol(b: Build):
     return finish(parts), textures
 
 
+# ------------------------------------------------------------------ the VW T2 (Chrono data/vehicle/VW_microbus)
+VAN = "data/vehicle/VW_microbus"
+
+
+def make_van(b: Build):
+    body = b.obj("chrono", f"{VAN}/van_chassis_cream.obj")
+    b.bytes("chrono", f"{VAN}/van_chassis_cream.mtl")
+    t = f"{VAN}/textures/"
+    variants = [b.image("chrono", t + v, size=2048) for v in ("Volks_Van_Texturing_Volks_Van_Chassis_BaseColor.jpg",
+                                                   "Volks_Van_Chassis_BaseColor_Cream.jpg",
+                                                   "Volks_Van_Chassis_BaseColor_Yellow.jpg")]
+    opacity = b.image("chrono", t + "Volks_Van_Chassis_Opacity.jpg", "L", size=2048)
+    exterior = b.image("chrono", t + "Volks_Van_Texturing_Volks_Van_Exteriors_BaseColor.jpg")
+    g = body.groups
+    c = body.centroids()
+    roles = np.full(len(body.faces), "plastic", object)
+    chassis = g == "lambert13SG"
+    col = face_samples(variants[0], body)
+    paint = face_samples(paint_mask(variants).astype(np.float32), body) > 0.5
+    roles[chassis & (col.mean(axis=1) > 0.6)] = "white"  # the two-tone's white roof and waist
+    roles[chassis & paint] = "paint"
+    pane = chassis & ((face_samples(opacity, body) < 0.6) | (corner_samples(opacity, body) < 0.6).any(axis=1))
+    roles[pane] = "glass"
+    ext = g == "lambert14SG"
+    ecol = face_samples(exterior, body)
+    roles[ext] = lamp_roles(ecol)[ext]
+    # bumpers and trim strips: bright grey -> chrome; the white of this atlas is painted
+    roles[ext & (roles == "light_white") & (np.abs(ecol[:, 0] - ecol[:, 2]) < 0.05)] = "chrome"
+    roles[ext & (ecol.mean(axis=1) > 0.85)] = "white"
+    # the lamps: at the front the round headlamps, amber indicators; red at the back
+    front, back = c[:, 0] > 0.75, c[:, 0] < -3.2
+    lamp = ext & front & (np.abs(c[:, 1]) > 0.4) & (c[:, 2] > 0.45) & (c[:, 2] < 0.8) & (ecol.mean(axis=1) > 0.25)
+    roles[lamp] = "light_white"
+    # the brand's roundel on the engine lid: drawn in the paint (blank); the one on the grille
+    # is a relief in the grille's colour
+    roles[(roles == "white") & back & (np.abs(c[:, 1]) < 0.14) & (c[:, 2] > 0.8) & (c[:, 2] < 1.15)] = "paint"
+    wheels = b.chrono_wheels("VW_microbus/json/van_Vehicle.json", "VW_microbus/van_tire.obj")
+    parts = merge(split(body, roles), wheels)
+    parts = add_plates(parts, [(1, 0.42), (-1, 0.45)])
+    return finish(parts), {}, {"paint": (MATERIALS["paint"][0], 0.0, 0.45)}
+
+
+# ------------------------------------------------------------------ the city bus (Chrono data/vehicle/citybus)
+BUS = "data/vehicle/citybus"
+
+
+def make_bus(b: Build):
+    body = b.obj("chrono", f"{BUS}/CityBus_Vis.obj")
+    b.bytes("chrono", f"{BUS}/CityBus_Vis.mtl")
+    tex = b.image("chrono", f"{BUS}/textures/Bus_Texturing_Bus_Chassis_BaseColor.jpg")
+    opacity = b.image("chrono", f"{BUS}/textures/Bus_Chassis_Opacity.jpg", "L", size=tex.shape[0])
+    c = body.centroids()
+    col = face_samples(tex, body)
+    lum = col.mean(axis=1)
+    # a plain German city bus: the US livery (blue roof, white sides with the operator's and
+    # the state's names) becomes one ivory livery, the black band of the windows stays
+    roles = np.full(len(body.faces), "livery", object)
+    roles[lum < 0.12] = "livery_band"
+    front, back = c[:, 0] > c[:, 0].max() - 0.25, c[:, 0] < c[:, 0].min() + 0.25
+    low = c[:, 2] < 1.4
+    r, g = col[:, 0], col[:, 1]
+    amber = (r > 0.6) & (g > 0.25) & (g < 0.7) & (col[:, 2] < 0.25)
+    red = (r > 0.45) & (g < 0.2)
+    roles[(front | back) & low & amber] = "light_amber"
+    roles[back & low & red] = "light_red"
+    roles[front & low & (lum > 0.55) & (lum < 0.9) & (np.abs(r - col[:, 2]) < 0.06)] = "light_white"
+    pane = (face_samples(opacity, body) < 0.6) | (corner_samples(opacity, body) < 0.6).any(axis=1)
+    roles[pane] = "glass_privacy"  # a bus's panes are tinted; the empty saloon shows less through them
+    roles[c[:, 2] < 0.45] = "plastic"  # the skirts' and bumpers' lowest strip
+    wheels = b.chrono_wheels("citybus/vehicle/CityBus_Vehicle.json", "citybus/CityBusTire.obj", rim_faces=1500)
+    parts = merge(split(body, roles), wheels)
+    parts = add_plates(parts, [(1, 0.55), (-1, 0.75)])
+    return finish(parts), {}
+
+
+# ------------------------------------------------------------------ glTF sources (OpenMATERIAL)
+def gltf_meshes(b: Build, source: str, folder: str, name: str, files: tuple[str, ...]) -> list[tuple[str, str, Mesh]]:
+    """(node name, material name, mesh) of every mesh of a glTF read out of the repository
+    (its buffers and images beside it), node transforms applied, in the vehicle frame: glTF's
+    x stays, its up (y) becomes z, its z becomes -y."""
+    import tempfile
+
+    import trimesh
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for f in (name,) + files:
+            target = Path(tmp) / f
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(b.bytes(source, f"{folder}/{f}"))
+        scene = trimesh.load(str(Path(tmp) / name), force="scene", process=False)
+        out = []
+        to_vehicle = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+        for m in scene.dump():
+            mat = getattr(m.visual, "material", None)
+            uv = getattr(m.visual, "uv", None)
+            mesh = Mesh(np.asarray(m.vertices, float) @ to_vehicle.T, np.asarray(m.faces, np.int64),
+                        np.asarray(m.vertex_normals, float) @ to_vehicle.T,
+                        np.asarray(uv, float) if uv is not None else np.zeros((len(m.vertices), 2)))
+            out.append((str(m.metadata.get("name", "")), str(getattr(mat, "name", "") or ""), mesh))
+        return out
+
+
+# ------------------------------------------------------------------ the lorry (OpenMATERIAL truck_example)
+OM = "model_structure/objects"
+#: OpenMATERIAL's named materials -> roles (the cab's grey is its paint; the bed, canvas and the
+#: dark blue chassis keep their colours)
+LORRY_ROLES = {"Paint_Grey": "paint", "Chrome": "chrome", "Glass": "glass", "Plastic_Orange": "light_amber",
+               "Plastic_Clear": "light_white", "Plastic_White": "light_white", "Plastic_Red": "light_red",
+               "Number_Plate": "plate", "Paint_Blue": "underbody", "Rubber_Black": "tyre",
+               "Plastic_Black": "plastic", "Tissue_Grey": "canvas", "Tissue_Blue": "interior"}
+
+
+def make_lorry(b: Build):
+    b.bytes("openmaterial", f"{OM}/README.md")
+    meshes = gltf_meshes(b, "openmaterial", OM, "truck_example.gltf", ("truck_example.bin", "Textures/Number_Plate.png"))
+    parts: dict[str, list[Mesh]] = {}
+    for node, material, mesh in meshes:
+        role = LORRY_ROLES.get(material)
+        if role is None:
+            raise SystemExit(f"truck_example.gltf: material {material!r} of node {node!r} has no role")
+        if role == "paint" and node.startswith("Truck_Bed"):
+            role = "livery"  # the bed's boards: a fixed grey, not the cab's paint
+        if node.startswith("Rim_") or node.startswith("Spare_Wheel_Rim"):
+            role = "rim_steel" if node.startswith("Spare") else "rim"
+        parts.setdefault(role, []).append(mesh)
+    merged = {k: concat(v) for k, v in parts.items()}
+    allv = np.concatenate([m.vertices for m in merged.values()])
+    front = merged["chrome"].vertices[:, 0].mean() > (allv[:, 0].min() + allv[:, 0].max()) / 2
+    if not front:  # the cab at -x: turn the lorry round so that it faces +x
+        merged = {k: m.transformed(np.diag([-1.0, -1.0, 1.0])) for k, m in merged.items()}
+    return finish(merged), {}
+
+
 RECIPES = {
     "chrono-audi": Recipe(
         "Four-door saloon (a liftback of the Audi A7 kind), Project Chrono's 'audi' vehicle", "chrono",
@@ -285,6 +436,29 @@ RECIPES = {
          "(paint where the paint variants differ, glass by the opacity map, lamps by colour)",
          "the source's plate deleted, EU plates added", "rims and tyres added at the axle positions of "
          "json/suv_Vehicle.json")),
+    "chrono-van": Recipe(
+        "Van (a 1970s VW T2 'microbus', two-tone), Project Chrono's 'VW_microbus' vehicle", "chrono",
+        "data/vehicle/VW_microbus/", "car", "van", 4.80, 0.6, make_van,
+        ("converted from OBJ + textures to one GLB; faces given material roles by their texels "
+         "(paint where the paint variants differ, the white of the two-tone kept, glass by the opacity map)",
+         "the brand's roundel on the engine lid drawn in the paint", "EU plates added",
+         "the paint less glossy than the others' (roughness 0.45: its panels are coarse)",
+         "rims and tyres added at the axle positions of json/van_Vehicle.json")),
+    "chrono-citybus": Recipe(
+        "City bus (a 12 m low-floor bus), Project Chrono's 'citybus' vehicle, in a plain German livery", "chrono",
+        "data/vehicle/citybus/", "bus", "bus", 12.65, 1.0, make_bus,
+        ("converted from OBJ + texture to one GLB; the US operator's livery (blue roof, names and "
+         "emblems on the sides) replaced by one ivory livery with the dark window band",
+         "glass by the opacity map (tinted); lamps by colour at the ends", "EU plates added",
+         "the rims reduced from 7876 to about 1500 triangles (quadric edge collapse)",
+         "rims and tyres (twin at the rear) added at the axle positions of vehicle/CityBus_Vehicle.json")),
+    "openmaterial-lorry": Recipe(
+        "Tarpaulin lorry (a European two-axle cab-over truck), OpenMATERIAL's truck_example", "openmaterial",
+        "model_structure/objects/truck_example.gltf", "truck", "lorry", 8.44, 1.0, make_lorry,
+        ("converted from glTF (+ .bin) to one GLB, node transforms applied",
+         "its 13 named materials given roles and colours: the cab's grey is the paint drawn per "
+         "object, the bed a fixed grey, the canvas a grey tarpaulin, the dark blue frame dark",
+         "the number plates' UVs made again over each plate (each object draws its own registration)")),
 }
 
 

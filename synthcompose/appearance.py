@@ -4,8 +4,9 @@ and recorded, so that a dataset teaches a class, not one model's colour.
 A model's recolourable materials are found from its geometry and materials alone:
 
 * vehicles: the **paint** - the material named ``paint`` (the cast's vehicles name their
-  materials by role, docs/vehicles.md); in a model without one, the opaque, untextured,
-  non-metallic material with the largest surface among the glossy ones (roughness below
+  materials by role, docs/vehicles.md); none in a model whose body is a ``livery`` (a bus in
+  its operator's colours); in a model with neither, the opaque, untextured, non-metallic
+  material with the largest surface among the glossy ones (roughness below
   :data:`PAINT_MAX_ROUGHNESS`: paint is clear coated; tyres, trims and plastics are rough);
 * people: the **clothes** - the three opaque, untextured materials with the largest surface that
   are not skin-coloured (top, trousers, a vest or jacket).
@@ -56,6 +57,8 @@ PEOPLE = ("person", "rider")
 PAINT_MAX_ROUGHNESS = 0.4
 #: the material name that marks a vehicle's paint (docs/vehicles.md)
 PAINT_NAME = "paint"
+#: ... and a body in fixed colours (a bus's livery): without a paint, nothing is recoloured
+LIVERY_NAME = "livery"
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,8 @@ def _recolourable(model: Model, class_name: str) -> list[tuple[float, float, flo
         named = _named_paint(model)
         if named:
             return named[:1]
+        if any(part.name.strip().lower() == LIVERY_NAME for part in model.parts):
+            return []
     mats = [m for m in _materials(model) if m[0][3] >= 0.99 and not m[4] and m[2] < 0.5]
     if class_name in VEHICLES:
         glossy = [m for m in mats if m[3] < PAINT_MAX_ROUGHNESS]
