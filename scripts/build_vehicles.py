@@ -1,7 +1,7 @@
 """Build the vehicles of the default cast (assets/cast/vehicles/<id>/) from their public sources.
 
     python scripts/build_vehicles.py --chrono <git dir of projectchrono/chrono> \
-        --openmaterial <git dir of LudwigFriedmann/OpenMATERIAL> --gazebo <git dir of osrf/gazebo_models> \
+        --openmaterial <git dir of LudwigFriedmann/OpenMATERIAL> \
         [--only chrono-audi ...] [--out assets/cast/vehicles] [--debug]
 
 Every source file is read out of a bare git directory at the commit named in
@@ -53,7 +53,7 @@ def build(recipe_id: str, gits: dict[str, Path], out_root: Path, debug: bool = F
     lines = [recipe.title, "", f"Source: github:{source.repo} at commit {source.commit}",
              "Files read (paths in that repository):"] + [f"  {p}" for p in build.read] + [""]
     lines += ["What was changed (scripts/build_vehicles.py, recipe " + recipe_id + "):"]
-    lines += [f"  - {c}" for c in recipe.changes] + [""]
+    lines += [f"  - {c}" for c in recipe.changes + tuple(build.notes)] + [""]
     lines += [f"Licence: {source.spdx} ({source.licence_note})."]
     (out / "SOURCE.txt").write_text("\n".join(lines) + "\n")
     (out / "LICENSE").write_bytes(build.licence_text(recipe.source))

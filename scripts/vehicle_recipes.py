@@ -31,8 +31,6 @@ SOURCES = {
     "openmaterial": Source("LudwigFriedmann/OpenMATERIAL", "c1283d565efdbf9f8e4afdc0a593bcabb466378d",
                            "CC-BY-SA-4.0", "", "model_structure/objects/README.md of that commit; ShareAlike: "
                            "the converted model stays under CC-BY-SA 4.0"),
-    "gazebo": Source("osrf/gazebo_models", "8163eb4b5e7e21985c6591d1c0bfb56468c0093f", "CC-BY-3.0", "LICENSE",
-                     "the repository's LICENSE: Creative Commons Attribution 3.0 Unported"),
 }
 
 
@@ -42,6 +40,7 @@ class Build:
     def __init__(self, gits: dict[str, Path]) -> None:
         self.gits = gits
         self.read: list[str] = []
+        self.notes: list[str] = []  # what a shared step changed (SOURCE.txt)
 
     # -------------------------------------------------------------- reading
     def bytes(self, source: str, path: str) -> bytes:
@@ -69,16 +68,29 @@ class Build:
         s = SOURCES[source]
         if s.licence_path:
             return git_read(self.gits[source], s.commit, s.licence_path)
-        return CC_BY_SA_4.encode()
+        # the repository states the licence in a README only: its legal code, kept in scripts/licences
+        return (Path(__file__).resolve().parent / "licences" / f"{s.spdx}.txt").read_bytes()
 
     # -------------------------------------------------------------- shared steps
-    def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 0) -> dict[str, Mesh]:
+    def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 2500,
+                      level: bool = True, tyre_faces: int = 1600) -> dict[str, Mesh]:
         """Rims and tyres at the wheel centres of a Chrono JSON vehicle: each axle's suspension
         location plus its spindle's COM (y mirrored for the right), the wheel's and tyre's meshes
         as Chrono places them (the file's mesh on the left, turned 180 degrees about z on the
-        right). The tyres' lowest 1.5 % of radius are flattened: the contact patch."""
+        right). The tyres' lowest 1.5 % of radius are flattened: the contact patch. Rims and tyres
+        above ``rim_faces`` / ``tyre_faces`` triangles are reduced to about that. ``level``
+        (default): every wheel at the first axle's height. The JSON files give each axle's design
+        position, a few centimetres apart in height on some vehicles (the sedan's 12.5 cm):
+        Chrono's springs settle the body under its weight, a static model would stand on two
+        wheels with the other two in the air."""
         vehicle = self.json("chrono", f"data/vehicle/{vehicle_json}")
+        self.notes.append(f"rims and tyres placed at the wheel centres of data/vehicle/{vehicle_json} (suspension "
+                          "location + spindle), " + ("every axle at the first one's height (a static model "
+                          "of the settled vehicle), " if level else "") + f"rims above {rim_faces} and tyres above "
+                          f"{tyre_faces} triangles reduced to about that (quadric edge collapse), the tyres' "
+                          "lowest 1.5 % of radius flattened (the contact patch)")
         rims, tyres = [], []
+        first_z = None
         for axle in vehicle["Axles"]:
             susp = self.json("chrono", f"data/vehicle/{axle['Suspension Input File']}")
             spindle = np.asarray(susp["Spindle"]["COM"], float)
@@ -88,13 +100,16 @@ class Build:
             rim = self.obj("chrono", f"data/vehicle/{wheel['Visualization']['Mesh Filename']}")
             if rim_faces:
                 rim = decimate(rim, rim_faces)
-            tyre = self.obj("chrono", f"data/vehicle/{tyre_obj}")
+            tyre = decimate(self.obj("chrono", f"data/vehicle/{tyre_obj}"), tyre_faces)
             r = tyre.vertices[:, 2].max()
             tyre.vertices[:, 2] = np.maximum(tyre.vertices[:, 2], -r * 0.985)
             offsets = [(0.0, 1)] if not twin else [(axle["Wheel Separation"] / 2, 1), (-axle["Wheel Separation"] / 2, -1)]
             for side in (1, -1):
                 for dy, facing in offsets:
                     centre = loc + spindle * np.array([1.0, side, 1.0]) + np.array([0.0, side * dy, 0.0])
+                    first_z = centre[2] if first_z is None else first_z
+                    if level:
+                        centre[2] = first_z
                     rot = np.eye(3) if side * facing > 0 else np.diag([-1.0, -1.0, 1.0])
                     rims.append(rim.transformed(rot, centre))
                     tyres.append(tyre.transformed(rot, centre))
@@ -364,6 +379,83 @@ def make_bus(b: Build):
     return finish(parts), {}
 
 
+# ------------------------------------------------------------------ the generic saloon (Chrono data/vehicle/sedan)
+SEDAN = "data/vehicle/sedan"
+#: its 12 flat materials -> roles, told by where their faces are: .001 the body (red paint), .002
+#: the steering wheel, .003 and .009-.012 the five seats, .004 the glass, .005 the seals and
+#: trim, .006 the mirrors' glass, .007 / .008 the head and tail lamps' lenses
+SEDAN_ROLES = {"Material.001": "paint", "Material.002": "interior", "Material.003": "interior",
+               "Material.004": "glass", "Material.005": "rubber", "Material.006": "mirror",
+               "Material.007": "light_white", "Material.008": "light_red", "Material.009": "interior",
+               "Material.010": "interior", "Material.011": "interior", "Material.012": "interior"}
+
+
+def make_sedan(b: Build):
+    body = b.obj("chrono", f"{SEDAN}/sedan_chassis_vis.obj")
+    b.bytes("chrono", f"{SEDAN}/sedan_chassis_vis.mtl")
+    roles = np.array([SEDAN_ROLES[g] for g in body.groups], object)
+    wheels = b.chrono_wheels("sedan/vehicle/Sedan_Vehicle.json", "sedan/sedan_tire.obj")
+    parts = add_plates(merge(split(body, roles), wheels), [(1, 0.22), (-1, 0.42)])
+    return finish(parts), {}
+
+
+# ------------------------------------------------------------------ the Jeep Cherokee (Chrono data/vehicle/jeep)
+JEEP = "data/vehicle/jeep"
+#: its 18 flat materials (no glass of its own, no textures) -> roles, told by where their faces
+#: are: _1 the body's paint, _0 the lower cladding and bumpers, _2 the glass above the waist line
+#: and the wheel-arch flares below it, _15 the tinted rear panes, _4 the lettering ("Jeep",
+#: "Cherokee", "4x4": thousands of tiny faces), _9/_10/_11 the tail lamp (amber, red, reverse),
+#: _12/_13/_17 the front lamps, _8 the seats
+JEEP_ROLES = {"material_0": "plastic", "material_1": "paint", "material_2": "glass", "material_3": "plastic",
+              "material_4": "delete", "material_5": "plastic", "material_6": "underbody", "material_7": "plastic",
+              "material_8": "interior", "material_9": "light_amber", "material_10": "light_red",
+              "material_11": "light_white", "material_12": "light_amber", "material_13": "light_white",
+              "material_14": "underbody", "material_15": "glass_privacy", "material_16": "plastic",
+              "material_17": "light_white"}
+#: the waist line (m, the source's z): _2's faces below it are the flares
+JEEP_WAIST = 0.74
+
+
+def make_jeep(b: Build):
+    body = b.obj("chrono", f"{JEEP}/JeepCherokee.obj")
+    b.bytes("chrono", f"{JEEP}/JeepCherokee.mtl")
+    roles = np.array([JEEP_ROLES[g] for g in body.groups], object)
+    roles[(body.groups == "material_2") & (body.centroids()[:, 2] < JEEP_WAIST)] = "plastic"
+    wheels = jeep_wheels(b)
+    parts = add_plates(merge(split(body, roles), wheels), [(1, 0.3), (-1, 0.55)])
+    return finish(parts), {}
+
+
+def jeep_wheels(b: Build) -> dict[str, Mesh]:
+    """The Cherokee has no JSON vehicle: its wheel centres come from its C++ model, the axles'
+    locations in Cherokee_Vehicle.cpp (front at x = 0, rear at -2.578) and the spindles' in
+    Cherokee_SolidAxleFront.cpp / _Rear.cpp (read from those files)."""
+    src = "src/chrono_models/vehicle/jeep/"
+    vehicle = self_text(b, src + "Cherokee_Vehicle.cpp")
+    rear_x = float(re.search(r"m_axles\[1\]->Initialize\(m_chassis, nullptr, nullptr, ChVector3d\(([-\d.]+)", vehicle).group(1))
+    centres = []
+    for x, name in ((0.0, "Cherokee_SolidAxleFront.cpp"), (rear_x, "Cherokee_SolidAxleRear.cpp")):
+        text = self_text(b, src + name)
+        y, z = (float(v) for v in re.search(r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)", text).groups())
+        centres.append((x, y, z))
+    rim = b.obj("chrono", f"{JEEP}/Cherokee_Wheel.obj")
+    tyre = decimate(b.obj("chrono", f"{JEEP}/Cherokee_Tire.obj"), 1600)
+    rim = decimate(rim, 2500)
+    r = tyre.vertices[:, 2].max()
+    tyre.vertices[:, 2] = np.maximum(tyre.vertices[:, 2], -r * 0.985)
+    rims, tyres = [], []
+    for x, y, z in centres:
+        for side in (1, -1):
+            rot = np.eye(3) if side > 0 else np.diag([-1.0, -1.0, 1.0])
+            rims.append(rim.transformed(rot, (x, side * y, z)))
+            tyres.append(tyre.transformed(rot, (x, side * y, z)))
+    return {"rim": concat(rims), "tyre": concat(tyres)}
+
+
+def self_text(b: Build, path: str) -> str:
+    return b.bytes("chrono", path).decode("utf-8")
+
+
 # ------------------------------------------------------------------ glTF sources (OpenMATERIAL)
 def gltf_meshes(b: Build, source: str, folder: str, name: str, files: tuple[str, ...]) -> list[tuple[str, str, Mesh]]:
     """(node name, material name, mesh) of every mesh of a glTF read out of the repository
@@ -401,25 +493,43 @@ LORRY_ROLES = {"Paint_Grey": "paint", "Chrome": "chrome", "Glass": "glass", "Pla
                "Plastic_Black": "plastic", "Tissue_Grey": "canvas", "Tissue_Blue": "interior"}
 
 
-def make_lorry(b: Build):
+ROADSTER_ROLES = {"Paint_Red": "paint", "Tissue_Black": "rubber", "Glass": "glass", "Plastic_Orange": "light_amber",
+                  "Chrome": "chrome", "Plastic_Red": "light_red", "Plastic_Clear": "light_white",
+                  "Number_Plate": "plate", "Rubber_Black": "tyre", "Tissue_Sand": "interior", "Wood_Dark": "interior"}
+
+
+def openmaterial(b: Build, name: str, roles: dict[str, str], rename) -> dict[str, Mesh]:
+    """An OpenMATERIAL example's meshes by role (``rename(node, role)`` may change a node's role),
+    turned to face +x, glass wound outwards, plates with UVs over each plate."""
     b.bytes("openmaterial", f"{OM}/README.md")
-    meshes = gltf_meshes(b, "openmaterial", OM, "truck_example.gltf", ("truck_example.bin", "Textures/Number_Plate.png"))
+    meshes = gltf_meshes(b, "openmaterial", OM, f"{name}.gltf", (f"{name}.bin", "Textures/Number_Plate.png"))
     parts: dict[str, list[Mesh]] = {}
     for node, material, mesh in meshes:
-        role = LORRY_ROLES.get(material)
+        role = roles.get(material)
         if role is None:
-            raise SystemExit(f"truck_example.gltf: material {material!r} of node {node!r} has no role")
-        if role == "paint" and node.startswith("Truck_Bed"):
-            role = "livery"  # the bed's boards: a fixed grey, not the cab's paint
-        if node.startswith("Rim_") or node.startswith("Spare_Wheel_Rim"):
-            role = "rim_steel" if node.startswith("Spare") else "rim"
-        parts.setdefault(role, []).append(mesh)
+            raise SystemExit(f"{name}.gltf: material {material!r} of node {node!r} has no role")
+        parts.setdefault(rename(node, role), []).append(mesh)
     merged = {k: concat(v) for k, v in parts.items()}
     allv = np.concatenate([m.vertices for m in merged.values()])
-    front = merged["chrome"].vertices[:, 0].mean() > (allv[:, 0].min() + allv[:, 0].max()) / 2
-    if not front:  # the cab at -x: turn the lorry round so that it faces +x
+    lamps = merged["light_white"].vertices[:, 0].mean()
+    if lamps < (allv[:, 0].min() + allv[:, 0].max()) / 2:  # the headlamps at -x: turn it to face +x
         merged = {k: m.transformed(np.diag([-1.0, -1.0, 1.0])) for k, m in merged.items()}
-    return finish(merged), {}
+    return finish(merged)
+
+
+def make_lorry(b: Build):
+    def rename(node, role):
+        if role == "paint" and node.startswith("Truck_Bed"):
+            return "livery"  # the bed's boards: a fixed grey, not the cab's paint
+        if node.startswith("Rim_"):
+            return "rim"
+        return "rim_steel" if node.startswith("Spare_Wheel_Rim") else role
+    return openmaterial(b, "truck_example", LORRY_ROLES, rename), {}
+
+
+def make_roadster(b: Build):
+    return openmaterial(b, "vehicle_example", ROADSTER_ROLES,
+                        lambda node, role: "rim" if node.startswith("Rim_") else role), {}
 
 
 RECIPES = {
@@ -427,18 +537,21 @@ RECIPES = {
         "Four-door saloon (a liftback of the Audi A7 kind), Project Chrono's 'audi' vehicle", "chrono",
         "data/vehicle/audi/", "car", "saloon", 4.88, 1.0, make_audi,
         ("converted from OBJ + textures to one GLB; every face given a material role by its texels "
-         "(paint where the five paint variants differ, glass where the opacity map is below 0.45, lamps, trim)",
-         "the brand's rings deleted", "rims and tyres added at the axle positions of json/audi_Vehicle.json")),
+         "(paint where the red, blue and green paint variants differ; glass on the navy texels, clear "
+         "where the opacity map is below 0.5, tinted behind; lamps, chrome, trim)",
+         "the brand's rings deleted; the source's US-sized plates deleted, EU plates added",
+         "rims and tyres added at the axle positions of json/audi_Vehicle.json, reduced to about "
+         "2500 / 1600 triangles each (quadric edge collapse)")),
     "chrono-patrol": Recipe(
         "Large off-road SUV (a Nissan Patrol Y61), Project Chrono's 'Nissan_Patrol' vehicle", "chrono",
-        "data/vehicle/Nissan_Patrol/", "car", "suv", 5.33, 0.5, make_patrol,
+        "data/vehicle/Nissan_Patrol/", "car", "suv", 5.05, 0.3, make_patrol,
         ("converted from OBJ + textures to one GLB; faces given material roles by their texels "
          "(paint where the paint variants differ, glass by the opacity map, lamps by colour)",
          "the source's plate deleted, EU plates added", "rims and tyres added at the axle positions of "
          "json/suv_Vehicle.json")),
     "chrono-van": Recipe(
         "Van (a 1970s VW T2 'microbus', two-tone), Project Chrono's 'VW_microbus' vehicle", "chrono",
-        "data/vehicle/VW_microbus/", "car", "van", 4.80, 0.6, make_van,
+        "data/vehicle/VW_microbus/", "car", "van", 4.50, 0.3, make_van,
         ("converted from OBJ + textures to one GLB; faces given material roles by their texels "
          "(paint where the paint variants differ, the white of the two-tone kept, glass by the opacity map)",
          "the brand's roundel on the engine lid drawn in the paint", "EU plates added",
@@ -446,12 +559,33 @@ RECIPES = {
          "rims and tyres added at the axle positions of json/van_Vehicle.json")),
     "chrono-citybus": Recipe(
         "City bus (a 12 m low-floor bus), Project Chrono's 'citybus' vehicle, in a plain German livery", "chrono",
-        "data/vehicle/citybus/", "bus", "bus", 12.65, 1.0, make_bus,
+        "data/vehicle/citybus/", "bus", "bus", 12.10, 1.0, make_bus,
         ("converted from OBJ + texture to one GLB; the US operator's livery (blue roof, names and "
          "emblems on the sides) replaced by one ivory livery with the dark window band",
          "glass by the opacity map (tinted); lamps by colour at the ends", "EU plates added",
          "the rims reduced from 7876 to about 1500 triangles (quadric edge collapse)",
          "rims and tyres (twin at the rear) added at the axle positions of vehicle/CityBus_Vehicle.json")),
+    "chrono-sedan": Recipe(
+        "Four-door saloon (generic, of the 2000s), Project Chrono's 'sedan' vehicle", "chrono",
+        "data/vehicle/sedan/", "car", "saloon", 4.60, 1.0, make_sedan,
+        ("converted from OBJ to one GLB; its 12 flat materials given roles (paint, glass, lenses, "
+         "trim, seats)", "EU plates added",
+         "rims and tyres added (below); the JSON puts the rear axle 0.125 m lower than the front")),
+    "chrono-jeep": Recipe(
+        "Compact SUV (a Jeep Cherokee XJ), Project Chrono's 'jeep' vehicle", "chrono",
+        "data/vehicle/jeep/", "car", "suv", 4.25, 0.5, make_jeep,
+        ("converted from OBJ to one GLB; its 18 flat materials given roles by where their faces are "
+         "(glass above the waist line, flares below it, lamps, seats)", "the brand's and the model's "
+         "lettering deleted", "EU plates added", "rims and tyres added at the wheel centres of its C++ "
+         "model (src/chrono_models/vehicle/jeep/Cherokee_Vehicle.cpp, Cherokee_SolidAxleFront.cpp, "
+         "Cherokee_SolidAxleRear.cpp)")),
+    "openmaterial-roadster": Recipe(
+        "Classic roadster coupe (1950s), OpenMATERIAL's vehicle_example", "openmaterial",
+        "model_structure/objects/vehicle_example.gltf", "car", "classic", 4.14, 0.05, make_roadster,
+        ("converted from glTF (+ .bin) to one GLB, node transforms applied",
+         "its named materials given roles: the red is the paint drawn per object, the lamps' "
+         "translucent lenses opaque red, amber and clear over their reflectors, the hubcaps metal rims",
+         "the number plates' UVs made again over each plate (each object draws its own registration)")),
     "openmaterial-lorry": Recipe(
         "Tarpaulin lorry (a European two-axle cab-over truck), OpenMATERIAL's truck_example", "openmaterial",
         "model_structure/objects/truck_example.gltf", "truck", "lorry", 8.44, 1.0, make_lorry,
@@ -460,8 +594,3 @@ RECIPES = {
          "object, the bed a fixed grey, the canvas a grey tarpaulin, the dark blue frame dark",
          "the number plates' UVs made again over each plate (each object draws its own registration)")),
 }
-
-
-CC_BY_SA_4 = """Creative Commons Attribution-ShareAlike 4.0 International (CC BY-SA 4.0)
-https://creativecommons.org/licenses/by-sa/4.0/legalcode
-"""

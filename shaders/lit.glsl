@@ -239,12 +239,16 @@ void main() {
     vec3 spec = sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
 #if defined GLASS
     // a thin pane (n = 1.5, Schlick): each face reflects f, the two together 2f / (1 + f); of the
-    // rest the material lets u_transmission through. Premultiplied: the reflection is added,
-    // 1 - cover of what is behind is kept (the blend), on colour, coverage and depth alike.
+    // rest the material lets u_transmission through and scatters the remainder in its own
+    // colour (a tinted lens, a dirty pane: alpha blending's share). Premultiplied: reflection and
+    // scattered light are added, 1 - cover of what is behind is kept (the blend), on colour,
+    // coverage and depth alike.
     float f = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
     float reflected = 2.0 * f / (1.0 + f);
+    vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * occlusion;
+    vec3 scattered = v_color.rgb * (ambient + sun_rgb * ndl * sun_vis);
     float cover = 1.0 - (1.0 - reflected) * u_transmission;
-    vec3 color = reflected * (env * gloss + spec * gloss);
+    vec3 color = reflected * (env * gloss + spec * gloss) + (1.0 - reflected) * (1.0 - u_transmission) * scattered;
     out_color = vec4(color, cover);
     out_alpha = vec4(cover, 0.0, 0.0, cover);
     out_odepth = vec4(cover * v_depth, 0.0, 0.0, cover);

@@ -32,8 +32,9 @@ def _quad(x: float, y0: float, y1: float, z0: float, z1: float, rgba, roughness:
                         np.tile([0.0, roughness], (n, 1)), np.array([[0, 1, 2], [0, 2, 3]]), None)
 
 
-def _pane(x: float, name="glass") -> MeshPart:
-    return _quad(x, 1.0, -1.0, 0.8, 1.8, (0.6, 0.65, 0.65, 1.0 - TAU), 0.05)
+def _pane(x: float, rgb=(0.0, 0.0, 0.0)) -> MeshPart:
+    """A clear pane (black: it scatters nothing of its own) or a tinted one of colour ``rgb``."""
+    return _quad(x, 1.0, -1.0, 0.8, 1.8, (*rgb, 1.0 - TAU), 0.05)
 
 
 BOARD = (0.3, 0.1, 0.05)  # linear albedo of a board behind the pane: the interior
@@ -137,3 +138,19 @@ def test_the_interior_shows_behind_the_pane_and_hides_the_photo(gl_clean, shadin
     expected = glass["objc"][..., 1][inside] + t * alone["composed"][0][..., 1][inside]
     got = behind["composed"][0][..., 1][inside]
     assert np.abs(got - expected).max() < GLASS_INTERIOR_REL * float(expected.max())
+
+
+def test_a_tinted_pane_adds_its_colour_by_what_it_does_not_let_through(gl_clean):
+    """A lens of red plastic (alpha 0.3) over the photo: alpha blending's share of its lit colour
+    on top of the reflection, red over the background's grey."""
+    cam = make_camera()
+    bgs = _backgrounds((cam.height, cam.width))
+    clear = _render(gl_clean, Model("glass-one", (_pane(0.0),), (0.01, 2.0, 1.8)), "pixel", bgs)
+    red = _render(gl_clean, Model("glass-red", (_pane(0.0, (0.5, 0.02, 0.02)),), (0.01, 2.0, 1.8)), "pixel", bgs)
+    inside = _inside(clear)
+    added = red["composed"][0][inside] - clear["composed"][0][inside]
+    # the red channel gains about (1 - reflectance) (1 - tau) 0.5 x the light, green barely
+    assert added[:, 0].min() > 0.05
+    assert np.abs(added[:, 1]).max() < 0.01
+    # what shows through is the same: transmission does not depend on the colour
+    assert np.abs(_through(red, bgs)[inside] - _through(clear, bgs)[inside]).max() < GLASS_TRANSMISSION_ABS
