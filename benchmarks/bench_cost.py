@@ -87,16 +87,17 @@ def codec_cpu(root: Path, count: int) -> float:
         cv2.setNumThreads(-1)
 
 
-def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, **extra) -> Path:
-    """A manifest of one car per set (``objects``) over ``data``; the left view alone unless
-    ``extra`` says otherwise (the codec's figure counts the left view's files: eval_stereo.py
-    measures what the right view adds)."""
+def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, cars: list[dict] | None = None,
+                 **extra) -> Path:
+    """A manifest of one car per set (``objects``; ``cars``: the manifest objects, the bundled car
+    by default) over ``data``; the left view alone unless ``extra`` says otherwise (the codec's
+    figure counts the left view's files: eval_stereo.py measures what the right view adds)."""
     extra = {"render": {"right_view": False}} | extra
     path = folder / "bench.json"
     splits = sorted({i.split for i in find_image_sets(data)})
     path.write_text(json.dumps({
         "dataset": str(data), "output": str(out), "seed": 1, "splits": splits, "objects_per_image": objects,
-        "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]} | extra))
+        "objects": cars or [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]} | extra))
     return path
 
 
@@ -211,7 +212,7 @@ def compare_cars(name: str, data: Path, count: int, cars: list[dict], repeat: in
     runs = {c["name"]: [] for c in cars}
     for _ in range(repeat):
         for car in cars:
-            r = run_batch(data, 1, count, objects=[car])
+            r = run_batch(data, 1, count, cars=[car])
             runs[car["name"]].append(r["cpu_s"] / r["sets"])
     first = statistics.median(runs[cars[0]["name"]])
     print(f"{name}: {count} sets, 1 worker, CPU-s per set (median of {repeat}), ratio to {cars[0]['name']}")

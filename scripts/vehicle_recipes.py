@@ -73,7 +73,7 @@ class Build:
 
     # -------------------------------------------------------------- shared steps
     def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 2500,
-                      level: bool = True, tyre_faces: int = 1600) -> dict[str, Mesh]:
+                      level: bool = True, tyre_faces: int = 3000, heights: tuple | None = None) -> dict[str, Mesh]:
         """Rims and tyres at the wheel centres of a Chrono JSON vehicle: each axle's suspension
         location plus its spindle's COM (y mirrored for the right), the wheel's and tyre's meshes
         as Chrono places them (the file's mesh on the left, turned 180 degrees about z on the
@@ -82,7 +82,8 @@ class Build:
         (default): every wheel at the first axle's height. The JSON files give each axle's design
         position, a few centimetres apart in height on some vehicles (the sedan's 12.5 cm):
         Chrono's springs settle the body under its weight, a static model would stand on two
-        wheels with the other two in the air."""
+        wheels with the other two in the air. ``heights``: each axle's wheel centre height
+        instead (where the JSON's leave the tyres far below their arches)."""
         vehicle = self.json("chrono", f"data/vehicle/{vehicle_json}")
         self.notes.append(f"rims and tyres placed at the wheel centres of data/vehicle/{vehicle_json} (suspension "
                           "location + spindle), " + ("every axle at the first one's height (a static model "
@@ -91,7 +92,7 @@ class Build:
                           "lowest 1.5 % of radius flattened (the contact patch)")
         rims, tyres = [], []
         first_z = None
-        for axle in vehicle["Axles"]:
+        for index, axle in enumerate(vehicle["Axles"]):
             susp = self.json("chrono", f"data/vehicle/{axle['Suspension Input File']}")
             spindle = np.asarray(susp["Spindle"]["COM"], float)
             loc = np.asarray(axle["Suspension Location"], float)
@@ -110,6 +111,8 @@ class Build:
                     first_z = centre[2] if first_z is None else first_z
                     if level:
                         centre[2] = first_z
+                    if heights is not None:
+                        centre[2] = heights[index]
                     rot = np.eye(3) if side * facing > 0 else np.diag([-1.0, -1.0, 1.0])
                     rims.append(rim.transformed(rot, centre))
                     tyres.append(tyre.transformed(rot, centre))
@@ -286,7 +289,7 @@ def make_patrol(b: Build):
     roles[old_plate] = "delete"
     c = body.centroids()
     # the off-road kit: the roof rack and the bull bar in front of the grille (and its lamps)
-    roles[ext & ((c[:, 2] > 1.5) | ((c[:, 0] > 0.6) & (c[:, 2] > 0.55)))] = "delete"
+    roles[ext & ((c[:, 2] > 1.5) | ((c[:, 0] > 0.6) & (c[:, 2] > 0.47)))] = "delete"
     lamps = np.isin(g, ["lambert2SG", "lambert3SG", "lambert4SG"])
     roles[lamps] = lamp_roles(face_samples(lights, body))[lamps]
     roles[lamps & (c[:, 0] > 0.72)] = "delete"
@@ -337,12 +340,15 @@ def make_van(b: Build):
     front, back = c[:, 0] > 0.75, c[:, 0] < -3.2
     lamp = ext & front & (np.abs(c[:, 1]) > 0.4) & (c[:, 2] > 0.45) & (c[:, 2] < 0.8) & (ecol.mean(axis=1) > 0.25)
     roles[lamp] = "light_white"
-    # the brand's roundel on the engine lid: drawn in the paint (blank); the one on the grille
-    # is a relief in the grille's colour
-    roles[(roles == "white") & back & (np.abs(c[:, 1]) < 0.14) & (c[:, 2] > 0.8) & (c[:, 2] < 1.15)] = "paint"
+    # the brand's roundel on the engine lid (a raised disc): deleted, the lid is whole behind it;
+    # the one on the grille is a relief in the grille's colour
+    small = body.face_areas() < 0.0015
+    roles[back & small & (np.abs(c[:, 1]) < 0.11) & (c[:, 2] > 0.72) & (c[:, 2] < 0.93)] = "delete"
+    # the source's blank plate under the bumper handle: an EU plate takes its place
+    roles[back & (roles == "white") & (np.abs(c[:, 1]) < 0.3) & (c[:, 2] > 0.3) & (c[:, 2] < 0.55)] = "paint"
     wheels = b.chrono_wheels("VW_microbus/json/van_Vehicle.json", "VW_microbus/van_tire.obj")
     parts = merge(split(body, roles), wheels)
-    parts = add_plates(parts, [(1, 0.42), (-1, 0.45)])
+    parts = add_plates(parts, [(1, 0.42), (-1, 0.42)])
     return finish(parts), {}, {"paint": (MATERIALS["paint"][0], 0.0, 0.45)}
 
 
@@ -394,9 +400,14 @@ def make_sedan(b: Build):
     body = b.obj("chrono", f"{SEDAN}/sedan_chassis_vis.obj")
     b.bytes("chrono", f"{SEDAN}/sedan_chassis_vis.mtl")
     roles = np.array([SEDAN_ROLES[g] for g in body.groups], object)
-    wheels = b.chrono_wheels("sedan/vehicle/Sedan_Vehicle.json", "sedan/sedan_tire.obj")
+    # the JSON's wheel centres leave 13-20 cm between tyre and arch: raised to about 5 cm, and
+    # the whole car pitched so that both axles stand on level ground (nose down 1.1 degrees)
+    front, rear = (1.388, 0.21), (-1.388, 0.155)
+    wheels = b.chrono_wheels("sedan/vehicle/Sedan_Vehicle.json", "sedan/sedan_tire.obj", heights=(front[1], rear[1]))
     parts = add_plates(merge(split(body, roles), wheels), [(1, 0.22), (-1, 0.42)])
-    return finish(parts), {}
+    t = np.arctan2(front[1] - rear[1], front[0] - rear[0])
+    pitch = np.array([[np.cos(t), 0.0, np.sin(t)], [0.0, 1.0, 0.0], [-np.sin(t), 0.0, np.cos(t)]])
+    return finish({k: m.transformed(pitch) for k, m in parts.items()}), {}
 
 
 # ------------------------------------------------------------------ the Jeep Cherokee (Chrono data/vehicle/jeep)
@@ -439,7 +450,7 @@ def jeep_wheels(b: Build) -> dict[str, Mesh]:
         y, z = (float(v) for v in re.search(r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)", text).groups())
         centres.append((x, y, z))
     rim = b.obj("chrono", f"{JEEP}/Cherokee_Wheel.obj")
-    tyre = decimate(b.obj("chrono", f"{JEEP}/Cherokee_Tire.obj"), 1600)
+    tyre = decimate(b.obj("chrono", f"{JEEP}/Cherokee_Tire.obj"), 3000)
     rim = decimate(rim, 2500)
     r = tyre.vertices[:, 2].max()
     tyre.vertices[:, 2] = np.maximum(tyre.vertices[:, 2], -r * 0.985)
@@ -554,7 +565,7 @@ RECIPES = {
         "data/vehicle/VW_microbus/", "car", "van", 4.50, 0.3, make_van,
         ("converted from OBJ + textures to one GLB; faces given material roles by their texels "
          "(paint where the paint variants differ, the white of the two-tone kept, glass by the opacity map)",
-         "the brand's roundel on the engine lid drawn in the paint", "EU plates added",
+         "the brand's roundel on the engine lid deleted", "EU plates added",
          "the paint less glossy than the others' (roughness 0.45: its panels are coarse)",
          "rims and tyres added at the axle positions of json/van_Vehicle.json")),
     "chrono-citybus": Recipe(
@@ -570,7 +581,9 @@ RECIPES = {
         "data/vehicle/sedan/", "car", "saloon", 4.60, 1.0, make_sedan,
         ("converted from OBJ to one GLB; its 12 flat materials given roles (paint, glass, lenses, "
          "trim, seats)", "EU plates added",
-         "rims and tyres added (below); the JSON puts the rear axle 0.125 m lower than the front")),
+         "rims and tyres added (below) but raised into the arches: wheel centres at z 0.21 (front) and "
+         "0.155 (rear) instead of the JSON's 0.130 / 0.005, which leave 13-20 cm between tyre and arch; "
+         "the car pitched 1.1 degrees nose down so that both axles stand on level ground")),
     "chrono-jeep": Recipe(
         "Compact SUV (a Jeep Cherokee XJ), Project Chrono's 'jeep' vehicle", "chrono",
         "data/vehicle/jeep/", "car", "suv", 4.25, 0.5, make_jeep,
