@@ -15,7 +15,11 @@ car each) and, with --real, on a real Cityscapes root:
   spent while it ran;
 * for each worker count: wall time per set, wall against CPU / cores (the cores kept busy:
   1.0 is perfect), peak RSS per worker;
-* with --scale, CPU and wall per set and peak RSS for each batch size (linear: flat per set).
+* with --scale, CPU and wall per set and peak RSS for each batch size (linear: flat per set);
+* with --cars, instead of all that: the batch's CPU-seconds per set with each of the cars named
+  (one object per set, the same sets and seed), run in turn --repeat times, medians, and their
+  ratio to the first car's: what a model costs against another, e.g.
+  ``--cars current=assets/models/openmaterial_car/vehicle_example.gltf@4.4:+y:+x,audi=assets/cast/vehicles/chrono-audi/audi.glb@4.88``
 
 With --cast, only the cast's cost: the demo's objects from before the cast (a roadster, a toy
 truck, a mannequin, the built-in stop sign) against ``"cast": "street"``, and the built-in stop
@@ -89,14 +93,16 @@ def codec_cpu(root: Path, count: int) -> float:
         cv2.setNumThreads(-1)
 
 
-def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, specs: list | None = None, **extra) -> Path:
+def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, specs: list | None = None,
+                 cars: list[dict] | None = None, **extra) -> Path:
     """A manifest of one car per set (``objects``; ``specs``: other manifest objects, [] none:
-    a ``cast`` in ``extra``) over ``data``; the left view alone unless ``extra`` says otherwise
-    (the codec's figure counts the left view's files: eval_stereo.py measures what the right
-    view adds)."""
+    a ``cast`` in ``extra``; ``cars``: the same as ``specs``, the cars to compare) over ``data``;
+    the left view alone unless ``extra`` says otherwise (the codec's figure counts the left view's
+    files: eval_stereo.py measures what the right view adds)."""
     extra = {"render": {"right_view": False}} | extra
     path = folder / "bench.json"
     splits = sorted({i.split for i in find_image_sets(data)})
+    specs = cars or specs
     specs = [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}] if specs is None else specs
     path.write_text(json.dumps({
         "dataset": str(data), "output": str(out), "seed": 1, "splits": splits, "objects_per_image": objects}
@@ -227,6 +233,32 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
               f"peak RSS {r['rss_self_mb']:.0f} MB")
 
 
+def car_object(spec: str) -> dict:
+    """A manifest object from NAME=PATH@LENGTH[:UP:FORWARD] (glTF axes by default)."""
+    name, rest = spec.split("=", 1)
+    path, size = rest.rsplit("@", 1)
+    length, up, forward = (size.split(":") + ["+y", "+x"])[:3]
+    return {"name": name, "model": str((ROOT / path) if not Path(path).is_absolute() else path), "class": "car",
+            "size": {"length": float(length)}, "up": up, "forward": forward}
+
+
+def compare_cars(name: str, data: Path, count: int, cars: list[dict], repeat: int) -> None:
+    """The batch's CPU-seconds per set with each car alone, the cars run in turn ``repeat`` times
+    (the machine's load drifts alike for all), medians and ratios to the first."""
+    import statistics
+
+    runs = {c["name"]: [] for c in cars}
+    for _ in range(repeat):
+        for car in cars:
+            r = run_batch(data, 1, count, cars=[car])
+            runs[car["name"]].append(r["cpu_s"] / r["sets"])
+    first = statistics.median(runs[cars[0]["name"]])
+    print(f"{name}: {count} sets, 1 worker, CPU-s per set (median of {repeat}), ratio to {cars[0]['name']}")
+    for car in cars:
+        med = statistics.median(runs[car["name"]])
+        print(f"  {car['name']:>12}: {med:6.2f} CPU-s per set  x{med / first:.3f}  runs {[round(v, 2) for v in runs[car['name']]]}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--count", type=int, default=12)
@@ -236,8 +268,16 @@ def main() -> int:
     ap.add_argument("--real", type=Path, help="a Cityscapes root (real frames) to measure too")
     ap.add_argument("--cast", action="store_true",
                     help="only the cast's cost: the demo's old objects against the street cast (docs/cast.md)")
+    ap.add_argument("--cars", default="", help="NAME=PATH@LENGTH[:UP:FORWARD],...: compare what each costs")
+    ap.add_argument("--repeat", type=int, default=3, help="--cars: runs of each car, in turn")
     args = ap.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
+    if args.cars:
+        cars = [car_object(spec) for spec in args.cars.split(",")]
+        compare_cars("generated", dataset(args.count, width, height), args.count, cars, args.repeat)
+        if args.real is not None:
+            compare_cars("real", args.real, min(args.count, len(find_image_sets(args.real))), cars, args.repeat)
+        return 0
     scale = [int(v) for v in args.scale.split(",") if v]
     workers = [int(v) for v in args.workers.split(",")]
     print(f"{platform.node()}: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "

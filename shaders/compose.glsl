@@ -68,6 +68,19 @@ vec2 tone_at(ivec2 q) {
     return vec2(1.0);
 }
 
+// the share of the photo that must show through an object's panes for its disparity to be kept
+const float SEE_THROUGH = 0.1;
+
+// Pixel q and its four neighbours all show object id (pixel centres): not at its silhouette's edge.
+bool inside(ivec2 q, uint id) {
+    ivec2 hi = textureSize(u_id, 0) - 1;
+    for (int i = 0; i < 4; ++i) {
+        ivec2 r = clamp(q + ivec2(i == 0 ? 1 : (i == 1 ? -1 : 0), i == 2 ? 1 : (i == 3 ? -1 : 0)), ivec2(0), hi);
+        if (texelFetch(u_id, r, 0).r != id) return false;
+    }
+    return true;
+}
+
 // What the compose needs at pixel q, fetched once: the photo R (linear), the passes, the real
 // depth and label, and whether the object and its plane are seen in front of the real scene.
 struct Pixel {
@@ -208,6 +221,13 @@ void main() {
             out_instance = part > 0u ? part : u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
             out_visible = id;
+            // through the object's panes (inside its silhouette, not at its edge) the photo behind
+            // shows: a camera, and a stereo matcher, see through clear glass to it, so the
+            // disparity is the photo's there (the labels stay the object's: Cityscapes labels a
+            // car's windows as the car); behind a pane with the interior behind it (a = 1), the
+            // object's
+            if (x.a < 1.0 - SEE_THROUGH && inside(p, id))
+                out_disparity = texelFetch(u_disparity, p, 0).r;
         }
     }
 }

@@ -3,9 +3,11 @@ and recorded, so that a dataset teaches a class, not one model's colour.
 
 A model's recolourable materials are found from its geometry and materials alone:
 
-* vehicles: the **paint** - the opaque, untextured, non-metallic material with the largest
-  surface among the glossy ones (roughness below :data:`PAINT_MAX_ROUGHNESS`: paint is clear
-  coated; tyres, trims and plastics are rough);
+* vehicles: the **paint** - the material named ``paint`` (the cast's vehicles name their
+  materials by role, docs/vehicles.md); none in a model whose body is a ``livery`` (a bus in
+  its operator's colours); in a model with neither, the opaque, untextured, non-metallic
+  material with the largest surface among the glossy ones (roughness below
+  :data:`PAINT_MAX_ROUGHNESS`: paint is clear coated; tyres, trims and plastics are rough);
 * people: the **clothes** - the three opaque, untextured materials with the largest surface that
   are not skin-coloured (top, trousers, a vest or jacket).
 
@@ -53,6 +55,10 @@ VEHICLES = ("car", "truck", "bus", "caravan", "trailer", "train", "motorcycle", 
 PEOPLE = ("person", "rider")
 #: paint is clear coated: glossier than this (glTF roughness)
 PAINT_MAX_ROUGHNESS = 0.4
+#: the material name that marks a vehicle's paint (docs/vehicles.md)
+PAINT_NAME = "paint"
+#: ... and a body in fixed colours (a bus's livery): without a paint, nothing is recoloured
+LIVERY_NAME = "livery"
 
 
 @dataclass(frozen=True)
@@ -115,7 +121,26 @@ def recolourable(model: Model, class_name: str) -> list[tuple[float, float, floa
     return list(_FOUND[key])
 
 
+def _named_paint(model: Model) -> list[tuple[float, float, float, float]]:
+    """The base colour factors of the parts whose material is named ``paint`` (most surface first)."""
+    keys: dict[tuple, float] = {}
+    for part in model.parts:
+        if part.name.strip().lower() != PAINT_NAME or len(part.indices) == 0 or part.transmission > 0:
+            continue
+        tri = part.positions[part.indices]
+        area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
+        key = tuple(float(v) for v in np.round(part.colors[part.indices[0, 0]], 4))
+        keys[key] = keys.get(key, 0.0) + area
+    return sorted(keys, key=lambda k: -keys[k])
+
+
 def _recolourable(model: Model, class_name: str) -> list[tuple[float, float, float, float]]:
+    if class_name in VEHICLES:
+        named = _named_paint(model)
+        if named:
+            return named[:1]
+        if any(part.name.strip().lower() == LIVERY_NAME for part in model.parts):
+            return []
     mats = [m for m in _materials(model) if m[0][3] >= 0.99 and not m[4] and m[2] < 0.5]
     if class_name in VEHICLES:
         glossy = [m for m in mats if m[3] < PAINT_MAX_ROUGHNESS]

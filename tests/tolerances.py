@@ -237,3 +237,16 @@ RIGHT_CHANGE_OUTSIDE_MAX = 0.01
 #: the generator's right photo: the residual against the left one, warped by the true disparity,
 #: is this many times smaller than warped 2 px off
 RIGHT_PHOTO_MATCH_MARGIN = 1.5
+
+# ------------------------------------------------------------------ glass (test_glass.py)
+#: what a pane lets through of the photo vs (1 - reflectance) x its material's transmission, and
+#: the coverage vs its complement: the Fresnel term's growth off normal incidence over the pane
+#: (under 0.002 here) and half-float storage of the lit targets
+GLASS_TRANSMISSION_ABS = 0.01
+#: a pane's reflection may exceed reflectance x the sky's light by this share at most (the
+#: horizontal ray sees a mix of sky and ground, never more than the sky)
+GLASS_REFLECTION_REL = 0.05
+#: the interior seen through a pane vs the pane's reflection + its transmission x the interior
+#: rendered alone, relative: the same light on the same board; a pane left out, or drawn opaque,
+#: is off by a third or more
+GLASS_INTERIOR_REL = 0.01

@@ -31,13 +31,16 @@ def vertex_layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -
 
 @dataclass(frozen=True)
 class GpuMaps:
-    """The textures of one part: sRGB base colour and linear tangent-space normal map; ``plate``:
-    a number plate's image size, the part drawn with each object's plate (:mod:`.lit`)."""
+    """What a lit draw of one part binds: sRGB base colour and linear tangent-space normal map;
+    ``plate``: a number plate's image size, the part drawn with each object's plate (:mod:`.lit`);
+    ``transmission``: above 0 for glass, drawn after the opaque parts over what they left
+    (:meth:`.lit.LitDraw.draw`)."""
 
     base: moderngl.Texture | None
     normal: moderngl.Texture | None = None
     normal_scale: float = 1.0
     plate: tuple[int, int] | None = None
+    transmission: float = 0.0
 
 
 def mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
@@ -104,7 +107,8 @@ class GpuModel(_Mesh):
                                         axis=1).astype(np.float32))
             indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
             first += len(part.positions)
-            maps = GpuMaps(None if part.texture is None else mipmapped(gl, part.texture), plate=part.plate)
+            maps = GpuMaps(None if part.texture is None else mipmapped(gl, part.texture), plate=part.plate,
+                           transmission=float(part.transmission))
             if part.normal_texture is not None and part.tangents is not None:
                 maps = replace(maps, normal=mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
             if has_tangents:
@@ -132,7 +136,7 @@ class GpuModel(_Mesh):
         self.ranges: list[tuple[int, int, GpuMaps]] = []
         start = 0
         for idx, maps in zip(indices, maps_of):
-            plain = maps.base is None and maps.normal is None and maps.plate is None
+            plain = maps.base is None and maps.normal is None and maps.plate is None and not maps.transmission
             if self.ranges and plain and self.ranges[-1][2] == maps:
                 f, n, _ = self.ranges[-1]
                 self.ranges[-1] = (f, n + len(idx), maps)
