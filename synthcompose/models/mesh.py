@@ -62,6 +62,7 @@ class MeshPart:
     normal_texture: np.ndarray | None = None
     normal_scale: float = 1.0
     plate: tuple[int, int] | None = None
+    name: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,7 +218,7 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
 
 
 def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
-                 normal_texture=None, normal_scale=1.0, plate=None) -> MeshPart:
+                 normal_texture=None, normal_scale=1.0, plate=None, name="") -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
     glass = colors[:, 3] < 0.5
     if glass.any():  # transparent glass: render as dark glossy opaque surface
@@ -237,4 +238,5 @@ def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, t
         normal_texture=normal_texture,
         normal_scale=float(normal_scale),
         plate=plate,
+        name=str(name),
     )

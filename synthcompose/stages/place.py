@@ -14,7 +14,7 @@ from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record
 from ..manifest import Manifest, ObjectSpec
-from ..models import Model, load_model
+from ..models import Model, load_model, posable, pose_rng, posed_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
 from ..placements import SavedPlacement, saved_result
@@ -47,6 +47,7 @@ class PlacedObject:
     result: PlacementResult  # the pose and the candidates' rejections
     instance_id: int
     check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -83,6 +84,14 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
 
 
+def object_model(m: Manifest, ident: ImageSetId, k: int, spec: ObjectSpec) -> tuple[Model, dict | None]:
+    """The model of the ``k``-th object drawn: a person with MakeHuman's skeleton posed for it
+    (its own seeded draw, models.skinning), and its pose; any other model as the file has it."""
+    if spec.class_name in ("person", "rider") and posable(spec.model):
+        return posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, ident.key, k))
+    return load_model(spec.model, spec.size, spec.up, spec.forward), None
+
+
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``m.objects_per_image`` objects (by ``weights``) and place each in the frame, the
@@ -97,7 +106,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model = load_model(spec.model, spec.size, spec.up, spec.forward)
+            model, pose = object_model(m, ident, k, spec)
             others = [o.placement for o in objects]
             result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
                                   spec.orientation, others, trace=trace) \
@@ -117,7 +126,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
                     log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
             inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
             taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check))
+            objects.append(PlacedObject(spec, model, result, inst, check, pose))
     noise = frame_noise(frame)
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
