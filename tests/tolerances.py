@@ -237,3 +237,13 @@ RIGHT_CHANGE_OUTSIDE_MAX = 0.01
 #: the generator's right photo: the residual against the left one, warped by the true disparity,
 #: is this many times smaller than warped 2 px off
 RIGHT_PHOTO_MATCH_MARGIN = 1.5
+
+# ------------------------------------------------------------------ people posed at run time (test_people.py)
+PEOPLE_LBS_EPS = 1e-9  # linear blend skinning vs the same sums by hand, float64
+PEOPLE_REST_EPS_M = 1e-5  # the rest pose vs the bind mesh (float32 positions)
+PEOPLE_GROUND_M = 0.01  # a foot's lowest vertex vs the ground: the soles are put there by IK
+PEOPLE_FLAT_DEG = 2.0  # a flat foot's tilt
+#: share of arm vertices (below the armpit) inside the torso's cross-sections (shrunk 10 %): a
+#: puffy sleeve presses on a puffy jacket's side (measured up to 0.036); an arm through the body
+#: puts a quarter or more inside (test_an_arm_through_the_torso_is_caught)
+PEOPLE_ARM_INSIDE_MAX = 0.05
