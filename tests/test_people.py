@@ -265,3 +265,27 @@ def test_renderer_keeps_a_bounded_number_of_models(gl_clean):
             owned = len(gl_clean._owned)
     assert len(gl_clean._owned) <= owned  # GL objects of the dropped models are freed
     assert isinstance(model, Model)
+
+
+# ---------------------------------------------------------------------- in a batch
+def test_batch_poses_each_person_and_records_the_pose(tmp_path):
+    from synthcompose.cli import main
+    from synthcompose.synthetic import make_sample
+
+    from .test_batch import H, W
+
+    root = tmp_path / "cityscapes"
+    make_sample(root, count=2, width=W, height=H, seed=1)
+    objects = []
+    for entry in ENTRIES[:4]:
+        e = json.loads(entry.read_text())
+        objects.append({"name": e["id"], "model": str(entry.parent / e["model"]), "class": "person",
+                        "size": e["size"], "up": e["up"], "forward": e["forward"]})
+    manifest = tmp_path / "m.json"
+    manifest.write_text(json.dumps({"dataset": str(root), "output": str(tmp_path / "out"), "seed": 4,
+                                    "objects_per_image": 3, "objects": objects}))
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    poses = [o["appearance"]["pose"] for rec in sorted((tmp_path / "out" / "synthcompose").rglob("*.json"))
+             for o in json.loads(rec.read_text())["objects"]]
+    assert len(poses) >= 2 and len({p["pose_id"] for p in poses}) == len(poses)
+    assert all(p["pose"] in ("standing", "walking") for p in poses)

@@ -123,10 +123,10 @@ def walking(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, None, None]
     b.spread(SPINE, [0, 0, 1], -0.6 * pelvis_yaw)
     b.spread(SPINE, [1, 0, 0], -roll)
     b.spread(SPINE, [0, 1, 0], lean)
-    amp = arm_swing * rng.uniform(16, 26) * DEG
+    amp = arm_swing * rng.uniform(18, 30) * DEG
     arms = {}
     for side, swing in (("R", -amp * c), ("L", amp * c)):
-        flex = rng.uniform(10, 18) * DEG + 0.8 * max(swing, 0.0)
+        flex = rng.uniform(14, 24) * DEG + 0.8 * max(swing, 0.0)
         ab = hang_arm(b, side, swing, flex, rng.uniform(1, 4) * DEG, 0.05)
         arms["right" if side == "R" else "left"] = {"swing_deg": round(swing / DEG, 1), "elbow_deg": round(flex / DEG, 1),
                                                     "abduction_deg": round(ab / DEG, 1)}

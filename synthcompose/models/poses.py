@@ -182,7 +182,7 @@ def standing(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, tuple | No
     b.spread(SPINE, [0, 0, 1], rng.uniform(-5, 5) * DEG)
     desc = {"pose": "standing", "variant": variant, "weight_on": "left" if stance == "L" else "right",
             "hip_roll_deg": _r(roll / DEG, 2), "body_yaw_deg": _r(yaw / DEG, 2), "hip_shift_m": _r(shift),
-            "knee_deg": {side: _r(k / DEG, 1) for side, k in knees.items()},
+            "knee_deg": {("left" if side == "L" else "right"): _r(k / DEG, 1) for side, k in knees.items()},
             "free_foot_m": [_r(v) for v in feet[free][0]]}
     prop, hand_side = None, None
     side = "L" if rng.random() < 0.5 else "R"
