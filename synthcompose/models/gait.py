@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .arms import SPINE, hang_arm, turn_head
 from .rig import SIDES, PoseBuilder, rot
 
 #: share of the cycle a foot is on the ground
@@ -99,8 +100,6 @@ def foot_at(b: PoseBuilder, psi: float, stride: float, y: float, yaw: float, hs:
 
 def walking(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, None, None]:
     """A walking pose at a phase drawn from ``rng`` (see the module docstring)."""
-    from .poses import SPINE, hang_arm, turn_head
-
     info, s = b.info, b.info.stature / 1.75
     phase = float(rng.random())
     stride = info.stature * rng.uniform(0.62, 0.78)

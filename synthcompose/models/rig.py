@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .skinning import Skin
+from .skin import Skin
 
 SIDES = {"L": 1.0, "R": -1.0}
 _ARM_JOINTS = ("clavicle", "shoulder01", "upperarm", "lowerarm", "wrist", "finger", "metacarpal")
