@@ -74,6 +74,13 @@ class _Mesh:
                                                                       index_element_size=4))
         return self._vaos[prog]
 
+    def release(self) -> None:
+        """Free the GL objects of this mesh (it is not drawn again)."""
+        for obj in (*self._vaos.values(), self._vbo, self._ibo, self._tbo):
+            if obj is not None:
+                self._gl.free(obj)
+        self._vaos.clear()
+
 
 class GroundPlane(_Mesh):
     """The unit square [-1, 1]^2 at z = 0, facing +z, white and untextured: each object's local
@@ -143,6 +150,14 @@ class GpuModel(_Mesh):
             else:
                 self.ranges.append((start, len(idx), maps))
             start += len(idx)
+
+    def release(self) -> None:
+        """Free the buffers, vertex arrays and textures of this model."""
+        super().release()
+        textures = {id(t): t for _, _, maps in self.ranges for t in (maps.base, maps.normal) if t is not None}
+        for tex in textures.values():
+            self._gl.free(tex)
+        self.ranges = []
 
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""

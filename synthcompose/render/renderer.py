@@ -4,6 +4,7 @@ planes alone Ir, shaded per sample or per pixel (:mod:`.shading`) and resolved i
 then the integer ids at pixel centres; the passes are listed in :mod:`synthcompose.render`."""
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Sequence
 
 import moderngl
@@ -30,8 +31,14 @@ def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl
         gl.free(obj)
 
 
+#: models kept on the GPU between renders: beyond it the least recently drawn are freed (a
+#: person posed for each object is a new mesh every time, :mod:`..models.skinning`)
+MODELS_KEPT = 24
+
+
 class Renderer:
-    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
+    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept (the
+    :data:`MODELS_KEPT` most recently drawn)."""
 
     def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto", precision: str = "half") -> None:
         """``shading``: "sample" runs the lighting for every sample of the 4x multisampled lit
@@ -52,7 +59,7 @@ class Renderer:
         fill = FillPrograms.compile(gl) if shading == "pixel" else None
         if fill is not None:
             self.programs["fill"] = fill.objects  # the models draw their samples with it
-        self._models: dict[str, GpuModel] = {}
+        self._models: OrderedDict[str, GpuModel] = OrderedDict()  # the most recently drawn last
         # bound to sampler units that have nothing to show: every active sampler of a draw
         # must see a texture of its own kind (another pass may have left an integer one)
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
@@ -62,9 +69,22 @@ class Renderer:
             PerPixel(gl, fill, self._lit, self._gpu_model, precision)
 
     def _gpu_model(self, model: Model) -> GpuModel:
-        if model.key not in self._models:
-            self._models[model.key] = GpuModel(self.gl, model, self.programs)
-        return self._models[model.key]
+        gpu = self._models.pop(model.key, None)
+        if gpu is None:
+            gpu = GpuModel(self.gl, model, self.programs)
+        self._models[model.key] = gpu
+        return gpu
+
+    def _trim(self, objects: Sequence[RenderObject]) -> None:
+        """Free the least recently drawn models beyond :data:`MODELS_KEPT`, none of ``objects``'."""
+        wanted = {obj.model.key for obj in objects}
+        for key in [k for k in self._models if k not in wanted][:max(len(self._models) - MODELS_KEPT, 0)]:
+            self._models.pop(key).release()
+
+    @property
+    def models_kept(self) -> int:
+        """How many models are on the GPU now."""
+        return len(self._models)
 
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
                photo: np.ndarray | None = None, roi: Roi | None = None,
@@ -84,6 +104,7 @@ class Renderer:
         if roi is None:
             return None
         gl, ctx = self.gl.activate(), self.gl.ctx
+        self._trim(objects)
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
         tex: dict[str, moderngl.Texture] = {}

@@ -15,7 +15,7 @@ from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record
 from ..manifest import Manifest, ObjectSpec
-from ..models import Model, load_model
+from ..models import Model, load_model, posable, pose_rng, posed_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
 from ..placements import SavedPlacement, pose_problem, saved_result
@@ -50,6 +50,7 @@ class PlacedObject:
     instance_id: int
     check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
     cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
+    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -77,13 +78,19 @@ def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
-def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int) -> tuple[Model, CastDraw | None]:
-    """The model of the ``index``-th object placed in image set ``key``: the spec's file or
-    builtin; or, for a cast pool, an entry drawn (and posed) with the cast's own generator."""
-    if not spec.cast:
-        return load_model(spec.model, spec.size, spec.up, spec.forward), None
-    rng = cast_rng(m.seed, key, index)
-    return cast_model(draw_entry(spec.cast, rng), spec.size or None, rng)
+def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int) -> tuple[Model, CastDraw | None, dict | None]:
+    """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
+    drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
+    posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
+    builtin as it is."""
+    if spec.cast:
+        rng = cast_rng(m.seed, key, index)
+        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng)
+        return model, drawn, None
+    if spec.class_name in ("person", "rider") and posable(spec.model):
+        model, pose = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index))
+        return model, None, pose
+    return load_model(spec.model, spec.size, spec.up, spec.forward), None, None
 
 
 def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
@@ -93,6 +100,14 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     if not source.is_file():
         return set()
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
+
+
+def object_model(m: Manifest, ident: ImageSetId, k: int, spec: ObjectSpec) -> tuple[Model, dict | None]:
+    """The model of the ``k``-th object drawn: a person with MakeHuman's skeleton posed for it
+    (its own seeded draw, models.skinning), and its pose; any other model as the file has it."""
+    if spec.class_name in ("person", "rider") and posable(spec.model):
+        return posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, ident.key, k))
+    return load_model(spec.model, spec.size, spec.up, spec.forward), None
 
 
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
@@ -109,7 +124,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model, drawn = object_model(m, spec, ident.key, len(objects))
+            model, drawn, pose = object_model(m, spec, ident.key, len(objects))
             if saved is not None and (problem := pose_problem(frame, model.extents, saved.objects[k].matrix)):
                 raise InputError(saved.path, f"saved placement object {k} ({spec.name!r}) {problem}")
             others = [o.placement for o in objects]
@@ -134,7 +149,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
             except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
                 raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
             taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check, drawn))
+            objects.append(PlacedObject(spec, model, result, inst, check, drawn, pose))
     noise = frame_noise(frame)
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
