@@ -102,14 +102,6 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
 
 
-def object_model(m: Manifest, ident: ImageSetId, k: int, spec: ObjectSpec) -> tuple[Model, dict | None]:
-    """The model of the ``k``-th object drawn: a person with MakeHuman's skeleton posed for it
-    (its own seeded draw, models.skinning), and its pose; any other model as the file has it."""
-    if spec.class_name in ("person", "rider") and posable(spec.model):
-        return posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, ident.key, k))
-    return load_model(spec.model, spec.size, spec.up, spec.forward), None
-
-
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``m.objects_per_image`` objects (by ``weights``) and place each in the frame, the
