@@ -130,9 +130,10 @@ class LitDraw:
         return tex
 
     def program(self, plane: bool, shadows: bool = True, textured: bool = False,
-                normal_map: bool = False) -> moderngl.Program:
+                normal_map: bool = False, glass: bool = False) -> moderngl.Program:
         """The lit.glsl variant for a ground plane (``shadows`` False: Ir) or for object parts
-        (with a base colour texture, a normal map), with this render's uniforms (:attr:`uniforms`) set."""
+        (with a base colour texture, a normal map; ``glass``: a pane drawn over what is behind
+        it), with this render's uniforms (:attr:`uniforms`) set."""
         defines = {"PLANE": 1} if plane else {}
         if plane and not shadows:
             defines["NO_SHADOWS"] = 1
@@ -140,6 +141,8 @@ class LitDraw:
             defines["TEXTURE"] = 1
         if normal_map:
             defines["NORMAL_MAP"] = 1
+        if glass:
+            defines["GLASS"] = 1
         prog = self.gl.program("lit", **defines)
         for name, value in self.uniforms.items():
             uniform = prog.get(name, None)  # a variant may not use it
@@ -155,17 +158,22 @@ class LitDraw:
              shadows: bool = True, reverse: bool = False) -> None:
         """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
         (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
-        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`).
-        ``reverse``: every triangle of that sequence in the opposite order (the objects last to
-        first, then the planes): with a depth test that passes equal depths, the fragment that
-        is left at a pixel is the one the forward order leaves with a strict test (the first
-        drawn of the nearest), :class:`~synthcompose.render.shading.PerPixel`'s depth pre-pass."""
+        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`);
+        the opaque parts of every object first, then their glass (:meth:`_draw_glass`).
+        ``reverse``: every opaque triangle of that sequence in the opposite order (the objects
+        last to first, then the planes), the glass after them as forwards: with a depth test that
+        passes equal depths, the fragment that is left at a pixel is the one the forward order
+        leaves with a strict test (the first drawn of the nearest),
+        :class:`~synthcompose.render.shading.PerPixel`'s depth pre-pass (of the opaque parts)."""
         if not reverse:
             self._draw_planes(objects, lighting, shadows, reverse)
-        if objects_too:
-            self._draw_objects(objects, reverse)
+        glass, variants = self._draw_objects(objects, reverse) if objects_too else ([], {})
         if reverse:
             self._draw_planes(objects, lighting, shadows, reverse)
+        if glass:
+            if reverse:
+                self.gl.ctx.depth_func = "<"  # the forward draw's test against the opaque parts' depth
+            self._draw_glass(glass, variants)
 
     def _draw_planes(self, objects: Sequence[RenderObject], lighting: Lighting, shadows: bool, reverse: bool) -> None:
         prog = self.program(plane=True, shadows=shadows)
@@ -176,24 +184,66 @@ class LitDraw:
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)
 
-    def _draw_objects(self, objects: Sequence[RenderObject], reverse: bool) -> None:
-        """The objects over their planes, each run of parts with the variant for its maps."""
-        variants: dict[tuple[bool, bool], moderngl.Program] = {}
+    def _draw_objects(self, objects: Sequence[RenderObject], reverse: bool) -> tuple[list, dict]:
+        """The objects' opaque runs over their planes (``reverse``: :meth:`draw`), each with the
+        variant for its maps; their glass runs (object, run) and the variants, for :meth:`_draw_glass`."""
+        variants: dict[tuple[bool, bool, bool], moderngl.Program] = {}
+        glass = []
         for obj in (reversed(objects) if reverse else objects):
-            gpu = self._gpu_model(obj.model)
-            for first, count, maps in (reversed(gpu.ranges) if reverse else gpu.ranges):
-                base = self._base_texture(obj, maps)
-                key = (base is not None, maps.normal is not None)
-                if key not in variants:
-                    variants[key] = self.program(plane=False, textured=key[0], normal_map=key[1])
-                prog = variants[key]
-                prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
-                prog["u_sun_scale"].value = float(obj.sun_visibility)
-                set_recolour(prog, obj.recolour)
-                if base is not None:
-                    base.use(0)
-                if maps.normal is not None:
-                    maps.normal.use(6)
-                    prog["u_normal_scale"].value = maps.normal_scale
-                gpu.vao(prog, reverse).render(moderngl.TRIANGLES, vertices=count,
-                                              first=gpu.reversed_range(first, count) if reverse else first)
+            ranges = self._gpu_model(obj.model).ranges
+            for run in (reversed(ranges) if reverse else ranges):
+                if run[2].transmission > 0.0:
+                    glass.append((obj, run))
+                else:
+                    self._draw_run(obj, run, variants, reverse)
+        if reverse:  # the glass in the forward order
+            glass.reverse()
+        return glass, variants
+
+    def _draw_run(self, obj: RenderObject, run, variants: dict, reverse: bool = False) -> None:
+        """One run of ``obj``'s parts (first index, count, maps) with its lit variant
+        (``reverse``: its triangles last to first)."""
+        first, count, maps = run
+        base = self._base_texture(obj, maps)
+        key = (base is not None, maps.normal is not None, maps.transmission > 0.0)
+        if key not in variants:
+            variants[key] = self.program(plane=False, textured=key[0], normal_map=key[1], glass=key[2])
+        prog = variants[key]
+        prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
+        prog["u_sun_scale"].value = float(obj.sun_visibility)
+        if key[2]:  # a pane: no base colour of its own to change
+            prog["u_transmission"].value = float(maps.transmission)
+        else:
+            set_recolour(prog, obj.recolour)
+        if base is not None:
+            base.use(0)
+        if maps.normal is not None:
+            maps.normal.use(6)
+            prog["u_normal_scale"].value = maps.normal_scale
+        gpu = self._gpu_model(obj.model)
+        gpu.vao(prog, reverse).render(moderngl.TRIANGLES, vertices=count,
+                                      first=gpu.reversed_range(first, count) if reverse else first)
+
+    def _draw_glass(self, glass: list, variants: dict) -> None:
+        """The glass runs over everything drawn, blended (premultiplied: what a pane reflects is
+        added, what it lets through of what is behind is kept, lit.glsl GLASS), without writing
+        depth: first the panes facing away from the camera (a car's far windows, seen through
+        its near ones), then those facing it, each object's from the farthest object to the
+        nearest. The vehicles' glass is wound to face out of the vehicle (docs/vehicles.md)."""
+        ctx = self.gl.ctx
+        eye = np.asarray(self.uniforms["u_camera_pos"], np.float64)
+        glass = sorted(glass, key=lambda item: -float(np.linalg.norm(item[0].vehicle_from_object[:3, 3] - eye)))
+        fbo = ctx.fbo
+        depth_mask = fbo.depth_mask
+        fbo.depth_mask = False
+        ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+        try:
+            for side in ("front", "back"):  # the faces culled: back faces drawn first
+                ctx.cull_face = side
+                for obj, run in glass:
+                    self._draw_run(obj, run, variants)
+        finally:
+            ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+            ctx.cull_face = "back"
+            fbo.depth_mask = depth_mask

@@ -181,7 +181,7 @@ class PerPixel:
 
     def _depth_prepass(self, objects: Sequence[RenderObject], lighting: Lighting, depth: moderngl.Renderbuffer,
                        view: np.ndarray, proj: np.ndarray) -> None:
-        """The depth of the nearest plane or object at each pixel centre into ``depth``, drawn
+        """The depth of the nearest plane or opaque part at each pixel centre into ``depth``, drawn
         with fill.glsl, whose vertex stage computes the position as lit.glsl's does (the same
         products in the same order: the same depths, which the lit draw then tests with "<=")."""
         gl, ctx = self.gl, self.gl.ctx
@@ -196,9 +196,9 @@ class PerPixel:
         for obj in objects:
             fill_plane["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
             vao.render(moderngl.TRIANGLES)
-        for obj in objects:
+        for obj in objects:  # not the glass, which the lit draw blends over this depth
             fill["u_model"].write(gl_mat4(obj.vehicle_from_object))
-            self._gpu_model(obj.model).draw("fill")
+            self._gpu_model(obj.model).draw_opaque("fill")
         gl.free(fbo)
 
     def ir_source(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int]):
