@@ -1,7 +1,8 @@
 """Cost per image set in CPU-seconds (all threads, user + system), next to the PNG codec's own.
 
     python benchmarks/bench_cost.py [--count 12] [--size 2048x1024] [--workers 1] [--scale 12,100]
-                                    [--no-right] [--street] [--real /path/to/cityscapes] [--cast]
+                                    [--no-right] [--street] [--real /path/to/cityscapes ...] [--cast]
+                                    [--baseline /path/to/a/checkout/of/main]
 
 In one run, on generated image sets that measure like real ones (with right photos; cached
 under out/bench/; one car each, or with --street the demo's street cast, 2 objects each) and, with --real, on a real Cityscapes root:
@@ -21,7 +22,9 @@ under out/bench/; one car each, or with --street the demo's street cast, 2 objec
   is every stage less its GL passes (read, geometry, placement, light, camera match, tones,
   annotations, polygons, write);
 * for each worker count: wall time per set, wall against CPU / cores, peak RSS per worker;
-* with --scale, CPU per set and peak RSS for each batch size (flat per set: no growth).
+* with --scale, CPU per set and peak RSS for each batch size (flat per set: no growth);
+* with --baseline, all of that for another checkout's code too (e.g. ``git worktree add <dir>
+  main``), each of its batches right after this checkout's (the machine's load alike for both).
 * with --cars, instead of all that: the batch's CPU-seconds per set with each of the cars named
   (one object per set, the same sets and seed), run in turn --repeat times, medians, and their
   ratio to the first car's: what a model costs against another, e.g.
@@ -54,7 +57,9 @@ from pathlib import Path
 import cv2
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+#: the code measured: this checkout, or (--baseline's children) the checkout named by the variable
+CODE = Path(os.environ.get("SYNTHCOMPOSE_BENCH_CODE", ROOT))
+sys.path.insert(0, str(CODE))
 
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
@@ -146,17 +151,39 @@ print(json.dumps({"summary": s.to_dict(), "rss_self_mb": me / 1024, "rss_childre
 """
 
 
-def run_batch(data: Path, workers: int, limit: int, keep: Path | None = None, **extra) -> dict:
+def python_of(code: Path | None) -> str:
+    """The interpreter that runs ``code``: another checkout's own virtual environment (its
+    package installed from it, shaders included: a package path alone would load this one's)."""
+    if code is None:
+        return sys.executable
+    python = code / ".venv" / "bin" / "python"
+    if not python.exists():
+        raise SystemExit(f"--baseline {code}: no .venv/bin/python there (python3 -m venv .venv && "
+                         f".venv/bin/pip install -e . in that checkout)")
+    return str(python)
+
+
+def code_env(code: Path | None) -> dict | None:
+    """The environment of a child that runs ``code`` (another checkout) instead of this one."""
+    return None if code is None else os.environ | {"SYNTHCOMPOSE_BENCH_CODE": str(code)}
+
+
+def run_batch(data: Path, workers: int, limit: int, keep: Path | None = None, code: Path | None = None,
+              **extra) -> dict:
     """One `synthcompose batch` in a child process: wall, CPU of the child and its workers, RSS.
-    ``keep``: the output root to write (and keep); ``extra``: manifest fields."""
+    ``keep``: the output root to write (and keep); ``code``: another checkout to run (--baseline);
+    ``extra``: manifest fields."""
     with tempfile.TemporaryDirectory() as tmp:
         manifest = manifest_for(data, keep or Path(tmp) / "out", Path(tmp), **extra)
         c0, t0 = children_cpu_s(), time.perf_counter()
-        out = subprocess.run([sys.executable, "-c", _CHILD, str(manifest), str(workers), str(limit)],
-                             check=True, capture_output=True, text=True).stdout
+        out = subprocess.run([python_of(code), "-c", _CHILD, str(manifest), str(workers), str(limit)],
+                             check=True, capture_output=True, text=True, cwd=code, env=code_env(code)).stdout
         wall, cpu = time.perf_counter() - t0, children_cpu_s() - c0
         result = json.loads(out.strip().splitlines()[-1])
         done = result["summary"]["done"] + result["summary"]["skipped"]
+        if result["summary"]["failed"]:  # a failed set is not charged: say so, it changes the figures
+            print(f"  ({code or 'this'}: {result['summary']['failed']} of {limit} image sets failed: "
+                  f"{result['summary']['problems'][:2]})", flush=True)
         result.update(wall_s=wall, cpu_s=cpu, sets=max(done, 1))
         result["peak_mb"] = result["rss_self_mb"] if workers == 1 else result["rss_children_mb"]
         return result
@@ -279,37 +306,59 @@ def stage_table(stages: dict[str, float], codec: float) -> None:
           f"{(total - gl_all) / codec:.2f} x the codec (target <= 1.5)")
 
 
+def stages_of(data: Path, count: int, code: Path | None, **view) -> tuple[dict[str, float], int]:
+    """:func:`stage_cpu` here, or with ``code`` in a child that runs that checkout's package."""
+    if code is None:
+        return stage_cpu(data, count, **view)
+    args = json.dumps({"data": str(data), "count": count, "view": view})
+    out = subprocess.run([python_of(code), str(Path(__file__).resolve()), "--stages-json", args], check=True,
+                         capture_output=True, text=True, cwd=code, env=code_env(code)).stdout
+    stages, n = json.loads(out.strip().splitlines()[-1])
+    return stages, n
+
+
 def report(name: str, data: Path, count: int, workers: list[int], scale: list[int], right: bool,
-           objects: dict | None = None) -> None:
+           objects: dict | None = None, baseline: Path | None = None, baseline_scale: list[int] = ()) -> None:
     """The headline, the workers, the stages and the scales for one dataset; ``objects``:
-    manifest_for's arguments for other objects than one car per set (--street)."""
+    manifest_for's arguments for other objects than one car per set (--street); ``baseline``:
+    another checkout measured the same way, each of its batches run right after this one's (of
+    the ``scale`` batches, those in ``baseline_scale``)."""
     cores = os.cpu_count() or 1
     codec = codec_cpu(data, count, right)
     view = {"render": {"right_view": right}} | (objects or {})
-    one = run_batch(data, 1, 1, **view)  # the start-up, and one set
-    rows = []
-    for w in workers:
-        r = run_batch(data, w, count, **view)
-        per_cpu, per_wall = r["cpu_s"] / r["sets"], r["wall_s"] / r["sets"]
-        rows.append((w, per_cpu, per_wall, per_wall / (per_cpu / cores), r["peak_mb"], r))
-    first = rows[0][5]
-    net = (first["cpu_s"] - one["cpu_s"]) / max(first["sets"] - one["sets"], 1)
+    codes = {"this": None} | ({"baseline": baseline} if baseline else {})
     what = "the street cast, 2 objects" if objects else "one car"
     print(f"\n== {name}: {count} image sets, {what} each, right view {'on' if right else 'off'}, {data}")
     print(f"codec (decode the inputs, encode the outputs, one thread, level 1): {codec:.3f} CPU-s per set")
-    print(f"HEADLINE  batch CPU-s per set {net:.3f} = {net / codec:.2f} x the codec (start-up removed by a 1-set "
-          f"batch: {one['cpu_s']:.2f} CPU-s; target <= 3); with it {rows[0][1]:.3f} = {rows[0][1] / codec:.2f} x")
-    print(f"{'workers':>8}{'CPU-s/set':>11}{'x codec':>9}{'wall s/set':>12}{'wall/(CPU/cores)':>18}{'peak RSS MB':>13}")
-    for w, c, wall, busy, peak, _ in rows:
-        print(f"{w:>8}{c:>11.3f}{c / codec:>9.2f}{wall:>12.3f}{busy:>18.2f}{peak:>13.0f}")
-    stages, n = stage_cpu(data, count, **view)
-    print(f"CPU-s per image set by stage (one after the other, {n} sets, after one to warm up):")
-    stage_table(stages, codec)
+    ones = {label: run_batch(data, 1, 1, code=code, **view) for label, code in codes.items()}  # start-up, one set
+    rows: dict[str, list] = {label: [] for label in codes}
+    for w in workers:
+        for label, code in codes.items():
+            r = run_batch(data, w, count, code=code, **view)
+            per_cpu, per_wall = r["cpu_s"] / r["sets"], r["wall_s"] / r["sets"]
+            rows[label].append((w, per_cpu, per_wall, per_wall / (per_cpu / cores), r["peak_mb"], r))
+    for label, code in codes.items():
+        one, first = ones[label], rows[label][0][5]
+        net = (first["cpu_s"] - one["cpu_s"]) / max(first["sets"] - one["sets"], 1)
+        print(f"[{label}{' ' + str(code) if code else ''}]")
+        print(f"HEADLINE  batch CPU-s per set {net:.3f} = {net / codec:.2f} x the codec (start-up removed by a 1-set "
+              f"batch: {one['cpu_s']:.2f} CPU-s; target <= 3); with it {rows[label][0][1]:.3f} = "
+              f"{rows[label][0][1] / codec:.2f} x")
+        print(f"{'workers':>8}{'CPU-s/set':>11}{'x codec':>9}{'wall s/set':>12}{'wall/(CPU/cores)':>18}{'peak RSS MB':>13}")
+        for w, c, wall, busy, peak, _ in rows[label]:
+            print(f"{w:>8}{c:>11.3f}{c / codec:>9.2f}{wall:>12.3f}{busy:>18.2f}{peak:>13.0f}")
+    for label, code in codes.items():
+        stages, n = stages_of(data, count, code, **view)
+        print(f"[{label}] CPU-s per image set by stage (one after the other, {n} sets, after one to warm up):")
+        stage_table(stages, codec)
     for size in scale:
-        r = run_batch(data, 1, size, **view)
-        print(f"scale {r['sets']:>4} sets: CPU {r['cpu_s'] / r['sets']:.3f} s/set "
-              f"({(r['cpu_s'] - one['cpu_s']) / max(r['sets'] - 1, 1):.3f} without the start-up), "
-              f"wall {r['wall_s'] / r['sets']:.3f} s/set, peak RSS {r['peak_mb']:.0f} MB (target <= 600)")
+        for label, code in codes.items():
+            if code is not None and size not in baseline_scale:
+                continue
+            r = run_batch(data, 1, size, code=code, **view)
+            print(f"[{label}] scale {r['sets']:>4} sets: CPU {r['cpu_s'] / r['sets']:.3f} s/set "
+                  f"({(r['cpu_s'] - ones[label]['cpu_s']) / max(r['sets'] - 1, 1):.3f} without the start-up), "
+                  f"wall {r['wall_s'] / r['sets']:.3f} s/set, peak RSS {r['peak_mb']:.0f} MB (target <= 600)", flush=True)
 
 
 def car_object(spec: str) -> dict:
@@ -346,33 +395,43 @@ def main() -> int:
     ap.add_argument("--scale", default="", help="batch sizes for the memory and linearity check, e.g. 12,100")
     ap.add_argument("--no-right", dest="right", action="store_false", help="the left view alone")
     ap.add_argument("--street", action="store_true", help='the demo\'s objects ("cast": "street", 2 a set), not one car')
-    ap.add_argument("--real", type=Path, help="a Cityscapes root (real frames) to measure too")
+    ap.add_argument("--real", type=Path, action="append", default=[],
+                    help="a Cityscapes root (real frames) to measure too; may be given more than once")
+    ap.add_argument("--baseline", type=Path, help="another checkout (e.g. a worktree of main) measured in the same run")
+    ap.add_argument("--baseline-scale", help="--scale's batch sizes for the baseline too (default: all of them)")
+    ap.add_argument("--stages-json", help=argparse.SUPPRESS)  # --baseline's child: stage_cpu's figures as JSON
     ap.add_argument("--cast", action="store_true",
                     help="only the cast's cost: the demo's old objects against the street cast (docs/cast.md)")
     ap.add_argument("--cars", default="", help="NAME=PATH@LENGTH[:UP:FORWARD],...: compare what each costs")
     ap.add_argument("--repeat", type=int, default=3, help="--cars: runs of each car, in turn")
     args = ap.parse_args()
+    if args.stages_json:
+        job = json.loads(args.stages_json)
+        print(json.dumps(stage_cpu(Path(job["data"]), job["count"], **job["view"])))
+        return 0
     width, height = (int(v) for v in args.size.split("x"))
     if args.cars:
         cars = [car_object(spec) for spec in args.cars.split(",")]
         compare_cars("generated", dataset(args.count, width, height), args.count, cars, args.repeat)
-        if args.real is not None:
-            compare_cars("real", args.real, min(args.count, len(find_image_sets(args.real))), cars, args.repeat)
+        for real in args.real:
+            compare_cars(f"real {real}", real, min(args.count, len(find_image_sets(real))), cars, args.repeat)
         return 0
     scale = [int(v) for v in args.scale.split(",") if v]
     workers = [int(v) for v in args.workers.split(",")]
     print(f"{platform.node()}: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"{datetime.date.today()}; llvmpipe unless a GPU is named by EGL")
     if args.cast:
-        if args.real is not None:
-            compare_cast("real", args.real, min(args.count, len(find_image_sets(args.real))))
+        for real in args.real:
+            compare_cast(f"real {real}", real, min(args.count, len(find_image_sets(real))))
         compare_cast("generated", dataset(args.count, width, height), args.count)
         return 0
     objects = {"objects": 2, "specs": [], "cast": "street"} if args.street else {}
-    if args.real is not None:  # real frames first
-        report("real", args.real, min(args.count, len(find_image_sets(args.real))), workers, [], args.right, objects)
+    baseline = args.baseline.resolve() if args.baseline else None
+    for real in args.real:  # real frames first
+        report("real", real, min(args.count, len(find_image_sets(real))), workers, [], args.right, objects, baseline)
+    baseline_scale = scale if args.baseline_scale is None else [int(v) for v in args.baseline_scale.split(",") if v]
     report("generated", dataset(max([args.count] + scale), width, height, right=True), args.count, workers, scale,
-           args.right, objects)
+           args.right, objects, baseline, baseline_scale)
     return 0
 
 
