@@ -25,8 +25,8 @@ STAGE_OF = {
     # running the stages: one image set, a batch, its engines
     "stages": 7, "pipeline": 7, "engines": 7, "selection": 7, "batch": 7,
     # the tools around the batch, the generator, the command line
-    "check": 8, "report": 8, "compare": 8, "preview": 8, "synthetic": 8, "ecosystem": 8,
-    "stereo_check": 8, "cli": 8, "__main__": 8,
+    "check": 8, "report": 8, "compare": 8, "preview": 8, "synthetic": 8,
+    "cli": 8, "__main__": 8,
 }
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from synthcompose import ecosystem
+from evaluation import ecosystem
 
 from .test_annotations import batch  # noqa: F401 (a fixture)
 from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK

@@ -10,7 +10,7 @@ import pytest
 
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets
-from synthcompose.stereo_check import check_pair
+from evaluation.stereo_check import check_pair
 
 from .real_root import REAL, needs_real
 from .test_batch import write_manifest

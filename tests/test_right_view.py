@@ -15,7 +15,7 @@ from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.fileio import decode_disparity, read_png
 from synthcompose.right_view import carry_to_right
-from synthcompose.stereo_check import check_pair, seen_by_both
+from evaluation.stereo_check import check_pair, seen_by_both
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .test_batch import write_manifest
