@@ -16,7 +16,7 @@ from synthcompose.batch import LOCK_NAME, OutputLock
 from synthcompose.cli import main
 from synthcompose.synthetic import make_sample
 
-from .test_batch import OUT_KINDS, write_manifest
+from .helpers import OUT_KINDS, write_manifest
 
 W, H = 640, 320
 

@@ -13,7 +13,7 @@ from synthcompose.dataset import find_image_sets
 from evaluation.stereo_check import check_pair
 
 from .real_root import REAL, needs_real
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN
 
 pytestmark = needs_real

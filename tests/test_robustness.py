@@ -29,7 +29,7 @@ from synthcompose.manifest import parse_manifest
 from synthcompose.synthetic import make_sample
 
 from .helpers import assert_resume_matches, crashing_worker, with_reference_run
-from .test_batch import ASSETS, OUT_KINDS, write_manifest
+from .helpers import ASSETS, OUT_KINDS, write_manifest
 from .tolerances import RSS_GROWTH_MB
 
 W, H = 320, 160

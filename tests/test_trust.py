@@ -18,7 +18,7 @@ from synthcompose.fileio import dumps_json, write_bytes_atomic
 from synthcompose.synthetic import make_sample
 from synthcompose.writer import output_paths
 
-from .test_batch import ASSETS, write_manifest
+from .helpers import ASSETS, write_manifest
 
 W, H = 320, 160
 
