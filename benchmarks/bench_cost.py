@@ -5,7 +5,8 @@
                                     [--baseline /path/to/a/checkout/of/main]
 
 In one run, on generated image sets that measure like real ones (with right photos; cached
-under out/bench/; one car each, or with --street the demo's street cast, 2 objects each) and, with --real, on a real Cityscapes root:
+under out/bench/; one car each, or with --street the demo's street cast, 2 objects each) and,
+with --real, on real Cityscapes roots:
 
 * the codec: decoding each image set's input PNGs (the right photo too when the right view is
   on) and encoding its outputs (the 5 left ones, and the right photo) on one thread with OpenCV
@@ -28,7 +29,8 @@ under out/bench/; one car each, or with --street the demo's street cast, 2 objec
 * with --cars, instead of all that: the batch's CPU-seconds per set with each of the cars named
   (one object per set, the same sets and seed), run in turn --repeat times, medians, and their
   ratio to the first car's: what a model costs against another, e.g.
-  ``--cars current=assets/models/openmaterial_car/vehicle_example.gltf@4.4:+y:+x,audi=assets/cast/vehicles/chrono-audi/audi.glb@4.88``
+  ``--cars current=assets/models/openmaterial_car/vehicle_example.gltf@4.4:+y:+x,
+  audi=assets/cast/vehicles/chrono-audi/audi.glb@4.88`` (one argument)
 
 With --cast, only the cast's cost: the demo's objects from before the cast (a roadster, a toy
 truck, a mannequin, the built-in stop sign) against ``"cast": "street"``, and the built-in stop
@@ -51,8 +53,8 @@ import sys
 import tempfile
 import time
 from contextlib import contextmanager
-from statistics import median
 from pathlib import Path
+from statistics import median
 
 import cv2
 
@@ -86,7 +88,8 @@ def dataset(count: int, width: int, height: int, right: bool = False) -> Path:
     """``count`` generated image sets (seed 123) at ``width`` x ``height``, with right photos when
     ``right``: the first of a larger set already made, or made now under out/bench/."""
     tag = "-stereo" if right else ""
-    made = sorted((int(p.name.split("-")[2]), p) for p in (ROOT / "out" / "bench").glob(f"cityscapes-{width}x{height}-*")
+    found = (ROOT / "out" / "bench").glob(f"cityscapes-{width}x{height}-*")
+    made = sorted((int(p.name.split("-")[2]), p) for p in found
                   if p.name.endswith(f"-{p.name.split('-')[2]}{tag}") and (p / ".complete").exists())
     for n, path in made:
         if n >= count:
@@ -190,8 +193,10 @@ def run_batch(data: Path, workers: int, limit: int, keep: Path | None = None, co
 
 
 #: the GL passes: (owner module, class, method) whose CPU is charged to "gl" (see stage_cpu)
-_GL_CALLS = (("synthcompose.render.renderer", "Renderer", "render"), ("synthcompose.render.renderer", "Renderer", "release"),
-             ("synthcompose.compose", "Composer", "compose_roi"), ("synthcompose.render.values", "RenderPasses", "read"))
+_GL_CALLS = (("synthcompose.render.renderer", "Renderer", "render"),
+             ("synthcompose.render.renderer", "Renderer", "release"),
+             ("synthcompose.compose", "Composer", "compose_roi"),
+             ("synthcompose.render.values", "RenderPasses", "read"))
 
 
 def stage_cpu(data: Path, count: int, objects: int = 1, **extra) -> tuple[dict[str, float], int]:
@@ -344,7 +349,8 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
         print(f"HEADLINE  batch CPU-s per set {net:.3f} = {net / codec:.2f} x the codec (start-up removed by a 1-set "
               f"batch: {one['cpu_s']:.2f} CPU-s; target <= 3); with it {rows[label][0][1]:.3f} = "
               f"{rows[label][0][1] / codec:.2f} x")
-        print(f"{'workers':>8}{'CPU-s/set':>11}{'x codec':>9}{'wall s/set':>12}{'wall/(CPU/cores)':>18}{'peak RSS MB':>13}")
+        print(f"{'workers':>8}{'CPU-s/set':>11}{'x codec':>9}{'wall s/set':>12}{'wall/(CPU/cores)':>18}"
+              f"{'peak RSS MB':>13}")
         for w, c, wall, busy, peak, _ in rows[label]:
             print(f"{w:>8}{c:>11.3f}{c / codec:>9.2f}{wall:>12.3f}{busy:>18.2f}{peak:>13.0f}")
     for label, code in codes.items():
@@ -358,7 +364,8 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
             r = run_batch(data, 1, size, code=code, **view)
             print(f"[{label}] scale {r['sets']:>4} sets: CPU {r['cpu_s'] / r['sets']:.3f} s/set "
                   f"({(r['cpu_s'] - ones[label]['cpu_s']) / max(r['sets'] - 1, 1):.3f} without the start-up), "
-                  f"wall {r['wall_s'] / r['sets']:.3f} s/set, peak RSS {r['peak_mb']:.0f} MB (target <= 600)", flush=True)
+                  f"wall {r['wall_s'] / r['sets']:.3f} s/set, peak RSS {r['peak_mb']:.0f} MB (target <= 600)",
+                  flush=True)
 
 
 def car_object(spec: str) -> dict:
@@ -384,7 +391,8 @@ def compare_cars(name: str, data: Path, count: int, cars: list[dict], repeat: in
     print(f"{name}: {count} sets, 1 worker, CPU-s per set (median of {repeat}), ratio to {cars[0]['name']}")
     for car in cars:
         med = statistics.median(runs[car["name"]])
-        print(f"  {car['name']:>12}: {med:6.2f} CPU-s per set  x{med / first:.3f}  runs {[round(v, 2) for v in runs[car['name']]]}")
+        listed = [round(v, 2) for v in runs[car["name"]]]
+        print(f"  {car['name']:>12}: {med:6.2f} CPU-s per set  x{med / first:.3f}  runs {listed}")
 
 
 def main() -> int:
@@ -394,7 +402,8 @@ def main() -> int:
     ap.add_argument("--workers", default="1")
     ap.add_argument("--scale", default="", help="batch sizes for the memory and linearity check, e.g. 12,100")
     ap.add_argument("--no-right", dest="right", action="store_false", help="the left view alone")
-    ap.add_argument("--street", action="store_true", help='the demo\'s objects ("cast": "street", 2 a set), not one car')
+    ap.add_argument("--street", action="store_true",
+                    help='the demo\'s objects ("cast": "street", 2 a set), not one car')
     ap.add_argument("--real", type=Path, action="append", default=[],
                     help="a Cityscapes root (real frames) to measure too; may be given more than once")
     ap.add_argument("--baseline", type=Path, help="another checkout (e.g. a worktree of main) measured in the same run")

@@ -79,7 +79,7 @@ def test_png_filters_keep_the_pixels(png_filter):
 
 
 # ------------------------------------------------------------------ the renderer's cheaper paths
-def _board(name: str, quads) -> "Model":
+def _board(name: str, quads) -> "Model":  # noqa: F821 (imported inside: GL-free collection)
     """A model of flat quads facing -x (the camera), each (corners, colour) a part of its own."""
     from synthcompose.models import MeshPart, Model
 
@@ -95,7 +95,7 @@ def _board(name: str, quads) -> "Model":
 
 
 def _render_passes(gl, model, names=("irpv", "ir", "alpha", "odepth", "plane", "objc", "id", "id_depth"), **kw):
-    from synthcompose.render import Lighting, RenderObject, Renderer
+    from synthcompose.render import Lighting, Renderer, RenderObject
 
     from .test_geometry import make_camera
 
@@ -145,7 +145,7 @@ def test_right_view_compose_gives_the_colour_of_the_full_one(gl_clean):
     from synthcompose.compose import Composer
     from synthcompose.lighting import CameraMatch
 
-    from .test_compose import W, H, _passes, _scene
+    from .test_compose import H, W, _passes, _scene
 
     rng = np.random.default_rng(9)
     alpha = rng.random((H, W)).astype(np.float32)
@@ -168,7 +168,7 @@ def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
     from synthcompose.lighting import CameraMatch
     from synthcompose.render import bands
 
-    from .test_compose import W, H, _passes, _scene
+    from .test_compose import H, W, _passes, _scene
 
     rng = np.random.default_rng(4)
     alpha = rng.random((H, W)).astype(np.float32)

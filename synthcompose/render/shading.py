@@ -184,7 +184,7 @@ class PerPixel:
         """The depth of the nearest plane or opaque part at each pixel centre into ``depth``, drawn
         with fill.glsl, whose vertex stage computes the position as lit.glsl's does (the same
         products in the same order: the same depths, which the lit draw then tests with "<=")."""
-        gl, ctx = self.gl, self.gl.ctx
+        gl = self.gl
         fbo = framebuffer(gl, [], depth, self.viewport)
         fbo.use()
         fbo.clear(depth=1.0)
