@@ -347,8 +347,8 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
         net = (first["cpu_s"] - one["cpu_s"]) / max(first["sets"] - one["sets"], 1)
         print(f"[{label}{' ' + str(code) if code else ''}]")
         print(f"HEADLINE  batch CPU-s per set {net:.3f} = {net / codec:.2f} x the codec (start-up removed by a 1-set "
-              f"batch: {one['cpu_s']:.2f} CPU-s; target <= 3); with it {rows[label][0][1]:.3f} = "
-              f"{rows[label][0][1] / codec:.2f} x")
+              f"batch: {one['cpu_s']:.2f} CPU-s, peak RSS {one['peak_mb']:.0f} MB; target <= 3); with it "
+              f"{rows[label][0][1]:.3f} = {rows[label][0][1] / codec:.2f} x")
         print(f"{'workers':>8}{'CPU-s/set':>11}{'x codec':>9}{'wall s/set':>12}{'wall/(CPU/cores)':>18}"
               f"{'peak RSS MB':>13}")
         for w, c, wall, busy, peak, _ in rows[label]:
