@@ -17,6 +17,8 @@ from ..manifest import Manifest, ObjectSpec
 from ..models import Model, load_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
+from ..placement.rules import rules_dict
+from ..placement.traffic import hand_of
 from ..placements import SavedPlacement, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
@@ -119,6 +121,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
             taken.add(inst)
             objects.append(PlacedObject(spec, model, result, inst, check))
     noise = frame_noise(frame)
+    street = frame.cache.get(("street", hand_of(m.rules.traffic)))  # found when an object asked for it
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
         source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
@@ -130,6 +133,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         else {"mode": "estimate"},  # the estimate replaces it when the objects are shaded
         not_placed=tuple(failures),
         placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
-                                                   "sha256": saved.sha256})
+                                                   "sha256": saved.sha256},
+        street=None if street is None else street.to_dict(), placement_rules=rules_dict(m.rules))
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 

@@ -1,0 +1,159 @@
+"""The lanes of the street: the spaces between each carriageway's kerbs, lane markings and
+centre line (``street.py``), what each is for and which way its traffic goes.
+
+A marking that leaves a lane narrower than ``MIN_LANE`` between two others is not a lane
+boundary (tram rails, a double line) and is dropped, the weakest first. A strip between a
+kerb and a marking 1.9-2.9 m wide is a parking strip (narrower: a cycle lane, no car); an
+unmarked lane along a kerb with room for a parked row (``WIDE``) has one where the frame's own
+cars are parked along that kerb (``parked.py``); a moving lane wider than ``LANE_WIDTH`` is
+split into lanes (the ego vehicle's centred on it).
+
+Directions (right-hand traffic, ``hand`` = +1; left-hand mirrors it): on a two-way
+carriageway the lanes right of the centre line go with the ego vehicle (+1, along the street
+away from the camera), those left of it come towards it (-1); a one-way carriageway goes with
+the ego vehicle; the other half of a dual road goes against it when on its oncoming side. A
+parking strip takes the direction of the lane beside it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry import Frame
+from .parked import parked_rows
+from .street import Carriageway, Street
+
+#: narrower than this, a space between two markings is no lane (metres)
+MIN_LANE = 2.3
+#: a marked strip along a kerb this wide is a parking strip (metres): up to MIN_MOVING always,
+#: up to STRIP[1] where the frame's own cars park along that kerb (else a moving lane)
+STRIP, MIN_MOVING = (1.9, 2.9), 2.5
+#: an unmarked lane along a kerb this wide has room for a parked row of this width (metres)
+WIDE, ROW_WIDTH = 4.3, 2.2
+#: a moving lane is at most this wide; wider, it is split into lanes at least LANE_MIN_SPLIT
+#: wide (metres)
+LANE_WIDTH, LANE_MIN_SPLIT = 3.75, 2.75
+
+
+@dataclass(frozen=True)
+class Lane:
+    """A lane across the street (s from ``right`` to ``left``, metres): ``role`` ``moving``,
+    ``parking`` or ``none`` (a cycle lane), ``direction`` +1 with the ego vehicle, -1 against,
+    the carriageway's index, and for a parking strip the kerb it runs along (``kerb`` -1 right,
+    +1 left, 0 none)."""
+
+    right: float
+    left: float
+    role: str
+    direction: int
+    carriageway: int
+    kerb: int = 0
+
+    @property
+    def centre(self) -> float:
+        return (self.left + self.right) / 2
+
+    @property
+    def width(self) -> float:
+        return self.left - self.right
+
+
+def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
+    """Every lane of the street (cached on the frame)."""
+    key = ("lanes", id(street), hand)
+    if key not in frame.cache:
+        rows = parked_rows(frame, street)
+        frame.cache[key] = tuple(lane for k, cw in enumerate(street.carriageways)
+                                 for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {}))
+    return frame.cache[key]
+
+
+def _direction(cw: Carriageway, s: float, hand: int) -> int:
+    if cw.side != 0:
+        return -hand * cw.side
+    if cw.centre is None:
+        return 1
+    return 1 if hand * (cw.centre - s) > 0 else -1
+
+
+def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[Lane]:
+    # boundaries: (offset, kind, cover); the kerbs and the centre line are never dropped
+    bounds = [(cw.right, "kerb", math.inf)] + [(m.offset, m.kind, m.cover) for m in cw.markings]
+    bounds += [(cw.left, "kerb", math.inf)]
+    if cw.centre is not None and all(abs(b[0] - cw.centre) > 1e-6 for b in bounds):
+        bounds.append((cw.centre, "centre", math.inf))
+    # a row of bays along a kerb: its depth is a boundary, the markings inside it are its bays'
+    for side, row in rows.items():
+        if row.layout == "parallel":
+            continue
+        kerb = cw.left if side > 0 else cw.right
+        edge = kerb - side * (row.depth + 0.3)
+        bounds = [b for b in bounds if b[1] == "kerb" or side * (kerb - b[0]) > row.depth + 0.6]
+        bounds.append((edge, "bays", math.inf))
+    bounds.sort()
+    bounds = [(o, kind, math.inf if cw.centre is not None and abs(o - cw.centre) < 1e-6 else c)
+              for o, kind, c in bounds]
+    while True:  # a marking leaving a narrow lane between two others is none (rails, double lines)
+        narrow = [i for i in range(1, len(bounds) - 2) if bounds[i + 1][0] - bounds[i][0] < MIN_LANE]
+        if not narrow:
+            break
+        i = narrow[0]
+        drop = min((i, i + 1), key=lambda j: bounds[j][2])
+        if not math.isfinite(bounds[drop][2]):
+            break
+        del bounds[drop]
+    out: list[Lane] = []
+    n = len(bounds)
+    for i in range(n - 1):
+        lo, hi = bounds[i][0], bounds[i + 1][0]
+        width = hi - lo
+        kerb = -1 if i == 0 else (1 if i == n - 2 else 0)
+        if n == 2:
+            kerb = 0
+        marked_strip = kerb != 0 and bounds[i + (1 if kerb < 0 else 0)][1] in ("solid", "dashed")
+        # a marked strip along the kerb: a cycle lane when narrow, a parking strip when a car fits
+        # and is no lane's width, or where the frame's own cars park along that kerb
+        if marked_strip and (width < STRIP[0] or width < MIN_MOVING or (kerb in rows and width < STRIP[1])):
+            role = "none" if width < STRIP[0] else "parking"
+            out.append(Lane(lo, hi, role, 0, k, kerb))
+            continue
+        for side in (-1, 1):  # an unmarked kerb lane beside the frame's own parked row
+            on_kerb = (side == -1 and i == 0) or (side == 1 and i == n - 2)
+            if on_kerb and side in rows and hi - lo >= WIDE:
+                if side == -1:
+                    out.append(Lane(lo, lo + ROW_WIDTH, "parking", 0, k, -1))
+                    lo += ROW_WIDTH
+                else:
+                    out.append(Lane(hi - ROW_WIDTH, hi, "parking", 0, k, 1))
+                    hi -= ROW_WIDTH
+        if hi - lo < MIN_LANE:
+            continue
+        for a, b in _split(lo, hi):
+            out.append(Lane(a, b, "moving", _direction(cw, (a + b) / 2, hand), k))
+    # a parking strip goes the way of the moving lane beside it
+    moving = [lane for lane in out if lane.role == "moving"]
+    done = []
+    for lane in out:
+        if lane.role != "moving":
+            near = min(moving, key=lambda m: abs(m.centre - lane.centre), default=None)
+            direction = near.direction if near is not None else _direction(cw, lane.centre, hand)
+            lane = Lane(lane.right, lane.left, lane.role, direction, k, lane.kerb)
+        done.append(lane)
+    return done
+
+
+def _split(lo: float, hi: float) -> list[tuple[float, float]]:
+    """A moving space split into equal lanes at most LANE_WIDTH (+ 0.5 m) wide."""
+    if hi - lo <= LANE_WIDTH + 0.5:
+        return [(lo, hi)]
+    n = max(1, min(int(math.ceil((hi - lo) / LANE_WIDTH)), int((hi - lo) / LANE_MIN_SPLIT)))
+    edges = np.linspace(lo, hi, n + 1)
+    return [(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def lane_at(all_lanes: tuple[Lane, ...], s: float) -> Lane | None:
+    return next((lane for lane in all_lanes if lane.right <= s <= lane.left), None)
+
+

@@ -1,0 +1,406 @@
+"""The street a frame shows, on the ground plan: its axis, kerb lines, lane markings,
+carriageways, lanes, crossings, and which way traffic goes in each lane.
+
+Everything here is in the vehicle frame's ground plan (V: x forward, y left, metres) and in a
+*road frame* that follows the street the camera drives on: ``a`` along the street (its x),
+``s`` across it (left positive), measured from an axis ``y = b x + q x^2`` through the
+vehicle's own ground point (so the ego vehicle is at s = 0, the street may be turned and
+gently curved). Lines that run along the street - kerbs, lane lines - are lines of constant
+``s``; the axis is the one that makes them so (the sharpest histogram of the kerb and marking
+points across it).
+
+1. **Lines**: kerb lines (where the road meets other ground, ``road.surface_edges``) and lane
+   markings (bright thin lines in the photo, ``markings.py``), each a peak of the points'
+   offset ``s`` covered over at least a few metres of ``a``; a marking is *solid* when seen
+   over 6 m without a break, else *dashed*. Two thin lines 1.3-1.6 m apart along the road are
+   tram rails, not lane lines.
+2. **Carriageways**: the ego carriageway between the nearest kerb line on each side (or where
+   its road ends); beyond a kerb, another carriageway where road runs between two kerb lines
+   (a dual road's other half).
+3. **Centre and direction** (``traffic.py`` for the lanes): the centre of a two-way
+   carriageway is the lane marking left of the ego vehicle nearest to the middle between its
+   kerbs, or that middle without one; with no marking left of the ego vehicle and the ego
+   vehicle not right of the middle, the street is one-way (the ego vehicle drives with it).
+4. **Crossings**: zebra stripes (``markings.py``) spread over at least 3 m across the
+   carriageway within a few metres along it.
+
+Built once per frame and cached; the placement and the checker read the same street.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry import Frame
+from ..labels import label_id
+from .markings import find_markings
+from .road import surface_edges
+
+#: the street is seen over this range of a (metres ahead of the vehicle's origin)
+NEAR, FAR = 3.0, 48.0
+#: lateral extent of the street model, metres
+SPAN = 16.0
+#: histogram bins: across (metres) and along (metres)
+S_BIN, A_BIN = 0.1, 1.0
+#: a line must be seen over this many metres of a (kerbs, markings)
+MIN_KERB_COVER, MIN_MARK_COVER = 4.0, 3.0
+#: a marking seen over this run of metres without a break is solid
+SOLID_RUN = 6.0
+#: tram rails: two thin lines this far apart (metres)
+RAIL_GAUGE = (1.3, 1.65)
+#: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it)
+EGO_HALF_LANE = 0.8
+#: a centre line leaves at least this much room for the oncoming lane (metres); a solid line
+#: counts this much farther from the middle than a dashed one
+ONCOMING_LANE, SOLID_PENALTY = 2.5, 1.5
+#: a two-way street without a centre marking: the ego vehicle is at least this far right of
+#: the middle, and the carriageway at least this wide
+TWO_WAY_OFFSET, TWO_WAY_WIDTH = 0.6, 5.0
+#: at most this many points go into the axis search, all within this many metres ahead (the
+#: street the ego vehicle is on, not the kerbs of a junction further on)
+AXIS_POINTS, AXIS_FAR = 3000, 30.0
+#: the street's axis is turned at most this much from the ego vehicle's heading (tan, 27 deg)
+MAX_SLOPE = 0.5
+#: the ego carriageway's kerbs: the nearest kerb line on each side seen this near
+KERB_NEAR = 18.0
+
+
+@dataclass(frozen=True)
+class StreetLine:
+    """A line along the street: ``offset`` s (metres, left positive), ``kind`` (``kerb``,
+    ``solid``, ``dashed``), where it is seen along the street (``start``, ``end``, metres of a)
+    and over how many metres (``cover``)."""
+
+    offset: float
+    kind: str
+    start: float
+    end: float
+    cover: float
+
+    def to_dict(self) -> dict:
+        return {"offset_m": round(self.offset, 3), "kind": self.kind, "from_m": round(self.start, 1),
+                "to_m": round(self.end, 1)}
+
+
+@dataclass(frozen=True)
+class Carriageway:
+    """One carriageway across the street: kerb offsets ``right`` < ``left`` (s, metres; where
+    no kerb is seen, where its road ends), the lane markings inside, its ``centre`` line (a
+    two-way carriageway) or None (one-way), and ``side``: 0 the ego vehicle's, +1 beyond its
+    left kerb, -1 beyond its right kerb (a dual road's other half)."""
+
+    right: float
+    left: float
+    markings: tuple[StreetLine, ...]
+    centre: float | None
+    side: int
+    centre_source: str  # "marking", "middle", "one-way"
+
+    def contains(self, s: float, margin: float = 0.0) -> bool:
+        return self.right - margin <= s <= self.left + margin
+
+    def to_dict(self) -> dict:
+        return {"right_m": round(self.right, 3), "left_m": round(self.left, 3),
+                "centre_m": None if self.centre is None else round(self.centre, 3),
+                "centre_source": self.centre_source, "side": self.side,
+                "markings": [m.to_dict() for m in self.markings]}
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A zebra crossing: along the street from ``start`` to ``end`` (a, metres), across the
+    carriageway from ``right`` to ``left`` (s, metres)."""
+
+    start: float
+    end: float
+    right: float
+    left: float
+
+    def contains(self, a: float, s: float) -> bool:
+        return self.start <= a <= self.end and self.right <= s <= self.left
+
+
+@dataclass(frozen=True)
+class Street:
+    """The street of one frame (see the module docstring). Axis ``y = b x + q x^2`` in V (x
+    from the vehicle's origin); ``lines`` every line found; ``carriageways`` the ego's first."""
+
+    b: float
+    q: float
+    lines: tuple[StreetLine, ...]
+    carriageways: tuple[Carriageway, ...]
+    crossings: tuple[Crossing, ...]
+
+    def heading(self, a) -> np.ndarray | float:
+        """Direction of the street at ``a`` (radians in V, pointing away from the camera)."""
+        return np.arctan(self.b + 2 * self.q * np.asarray(a, float))
+
+    def to_road(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """(a, s) of (N, 2) ground-plan points (V): along and across the street."""
+        return to_road(np.atleast_2d(np.asarray(xy, float)), self.b, self.q)
+
+    def to_plan(self, a: float, s: float) -> np.ndarray:
+        """(2,) ground-plan point (V) of road-frame (a, s)."""
+        t = float(self.heading(a))
+        y0 = self.b * a + self.q * a * a
+        return np.array([a - s * math.sin(t), y0 + s * math.cos(t)])
+
+    @property
+    def ego(self) -> Carriageway:
+        return self.carriageways[0]
+
+    def carriageway_at(self, s: float, margin: float = 0.3) -> Carriageway | None:
+        return next((c for c in self.carriageways if c.contains(s, margin)), None)
+
+    def crossing_at(self, a: float, s: float) -> Crossing | None:
+        return next((c for c in self.crossings if c.contains(a, s)), None)
+
+    def to_dict(self) -> dict:
+        return {"axis": {"b": round(self.b, 5), "q": round(self.q, 6)},
+                "carriageways": [c.to_dict() for c in self.carriageways],
+                "crossings": [[round(v, 2) for v in (c.start, c.end, c.right, c.left)] for c in self.crossings]}
+
+
+def to_road(xy: np.ndarray, b: float, q: float) -> tuple[np.ndarray, np.ndarray]:
+    """(a, s) of (N, 2) ground-plan points against the axis y = b x + q x^2: a = x, s the
+    offset across the axis (y off the axis, times the cosine of its heading)."""
+    x, y = xy[:, 0], xy[:, 1]
+    return x, (y - b * x - q * x * x) * np.cos(np.arctan(b + 2 * q * x))
+
+
+def find_street(frame: Frame, hand: int = 1) -> Street:
+    """The frame's street (cached on the frame) for right-hand (``hand`` = +1) or left-hand
+    (-1) traffic: the centre line is on the side of the ego vehicle its oncoming traffic
+    drives on."""
+    key = ("street", hand)
+    if key not in frame.cache:
+        frame.cache[key] = _build(frame, hand)
+    return frame.cache[key]
+
+
+def _window(xy: np.ndarray, cam_x: float) -> np.ndarray:
+    x = xy[:, 0] - cam_x
+    return xy[(x >= NEAR) & (x <= FAR) & (np.abs(xy[:, 1]) <= SPAN + 0.4 * x)]
+
+
+def _build(frame: Frame, hand: int) -> Street:
+    road_ids = np.array([label_id("road")])
+    kerbs = _window(surface_edges(frame, road_ids), frame.camera.x)
+    marks = _window(find_markings(frame).lines, frame.camera.x)
+    both = np.concatenate([kerbs, marks])
+    b, q = _axis(both[both[:, 0] - frame.camera.x <= AXIS_FAR])
+    kerb_lines = _lines(kerbs, b, q, MIN_KERB_COVER, "kerb")
+    mark_lines = _drop_rails(_lines(marks, b, q, MIN_MARK_COVER, None))
+    road = _road_profile(frame, b, q)
+    carriageways = _carriageways(kerb_lines, mark_lines, road, hand)
+    crossings = _crossings(find_markings(frame).zebra, b, q, carriageways[0])
+    return Street(b, q, tuple(sorted(kerb_lines + mark_lines, key=lambda l: l.offset)), tuple(carriageways),
+                  tuple(crossings))
+
+
+def _coverage(a: np.ndarray, s: np.ndarray, s_bin: float = S_BIN, grow: int = 1) -> tuple[np.ndarray, float]:
+    """(S, A) bool occupancy of (a, s) points in bins across and along the street (grown by
+    ``grow`` bins across), and the s of bin 0."""
+    s0 = -SPAN - 0.5 * FAR * 0.8
+    n_s = int(2 * -s0 / s_bin) + 1
+    n_a = int((FAR + 10) / A_BIN) + 1
+    si = np.clip(((s - s0) / s_bin).astype(np.int64), 0, n_s - 1)
+    ai = np.clip((a / A_BIN).astype(np.int64), 0, n_a - 1)
+    occ = np.zeros((n_s, n_a), bool)
+    occ[si, ai] = True
+    if grow:
+        g = occ.copy()
+        for k in range(1, grow + 1):
+            g[k:] |= occ[:-k]
+            g[:-k] |= occ[k:]
+        occ = g
+    return occ, s0
+
+
+def _axis(points: np.ndarray) -> tuple[float, float]:
+    """The axis (b, q) that lines the kerb and marking points up along the street: the most
+    metres of lines covered, squared per 0.2 m of s (long lines count most)."""
+    if len(points) < 20:
+        return 0.0, 0.0
+    if len(points) > AXIS_POINTS:
+        points = points[:: int(math.ceil(len(points) / AXIS_POINTS))]
+
+    def score(b: float, q: float) -> float:
+        a, s = to_road(points, b, q)
+        occ, _ = _coverage(a, s, 0.2, 0)
+        cover = occ.sum(axis=1).astype(np.float64)
+        # the ego vehicle drives along its street: a turned axis must line up clearly more
+        return float((cover * cover).sum()) * (1.0 - 0.2 * abs(b) / MAX_SLOPE)
+
+    slopes = np.linspace(-MAX_SLOPE, MAX_SLOPE, 31)
+    best_b = max(slopes, key=lambda b: score(b, 0.0))
+    fine = [(b, q) for b in best_b + np.linspace(-0.04, 0.04, 9) for q in np.linspace(-0.004, 0.004, 9)]
+    b, q = max(fine, key=lambda bq: score(*bq))
+    return _refine(points, float(b), float(q))
+
+
+def _refine(points: np.ndarray, b: float, q: float, iterations: int = 2) -> tuple[float, float]:
+    """The axis refined by least squares: the strongest lines (points within 0.25 m of each)
+    as parallel curves y = b x + q x^2 + c_k, one offset each, the axis shared."""
+    for _ in range(iterations):
+        lines = [ln for ln in _lines(points, b, q, SOLID_RUN, "any") if ln.cover >= SOLID_RUN][:6]
+        if not lines:
+            break
+        _, s = to_road(points, b, q)
+        rows, ys = [], []
+        for k, ln in enumerate(lines):
+            near = np.abs(s - ln.offset) < 0.25
+            x = points[near, 0]
+            rows.append(np.column_stack([x, x * x] + [np.full(len(x), float(j == k)) for j in range(len(lines))]))
+            ys.append(points[near, 1])
+        A, y = np.concatenate(rows), np.concatenate(ys)
+        if len(y) < 20:
+            break
+        # the bend only where lines are seen over a long stretch, else the slope alone
+        bend = len(lines) >= 2 and A[:, 0].max() - A[:, 0].min() >= 25.0
+        if not bend:
+            A, q = np.delete(A, 1, axis=1), 0.0
+        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+        b = float(np.clip(coef[0], -MAX_SLOPE, MAX_SLOPE))
+        if bend:
+            q = float(np.clip(coef[1], -0.005, 0.005))
+    return b, q
+
+
+def _lines(points: np.ndarray, b: float, q: float, min_cover: float, kind: str | None) -> list[StreetLine]:
+    """Peaks of the points' offset s, each covered over at least ``min_cover`` metres of a."""
+    if len(points) < 10:
+        return []
+    a, s = to_road(points, b, q)
+    occ, s0 = _coverage(a, s)
+    cover = occ.sum(axis=1) * A_BIN
+    out: list[StreetLine] = []
+    taken = np.zeros(len(cover), bool)
+    for i in np.argsort(-cover, kind="stable"):
+        if cover[i] < min_cover:
+            break
+        if taken[max(0, i - 6):i + 7].any():  # within 0.6 m of a stronger line
+            continue
+        taken[i] = True
+        centre = s0 + (i + 0.5) * S_BIN
+        near = np.abs(s - centre) <= 0.15
+        offset = float(np.median(s[near])) if near.any() else centre
+        cols = np.flatnonzero(occ[i])
+        run = _longest_run(cols)
+        out.append(StreetLine(offset, kind or ("solid" if run * A_BIN >= SOLID_RUN else "dashed"),
+                              float(cols.min() * A_BIN), float((cols.max() + 1) * A_BIN), float(cover[i])))
+    return out
+
+
+def _longest_run(cols: np.ndarray, gap: int = 1) -> int:
+    """Longest run of bins in sorted ``cols`` with breaks of at most ``gap`` bins."""
+    if not len(cols):
+        return 0
+    breaks = np.flatnonzero(np.diff(cols) > gap + 1)
+    starts = np.concatenate([[0], breaks + 1])
+    ends = np.concatenate([breaks, [len(cols) - 1]])
+    return int((cols[ends] - cols[starts] + 1).max())
+
+
+def _drop_rails(lines: list[StreetLine]) -> list[StreetLine]:
+    """Lane lines less the pairs of tram rails (two lines a rail gauge apart, neither dashed)."""
+    rails = set()
+    for i, m in enumerate(lines):
+        for j, n in enumerate(lines):
+            if i < j and RAIL_GAUGE[0] <= abs(m.offset - n.offset) <= RAIL_GAUGE[1] and "dashed" not in (m.kind, n.kind):
+                rails |= {i, j}
+    return [m for k, m in enumerate(lines) if k not in rails]
+
+
+@dataclass(frozen=True)
+class _RoadProfile:
+    """Share of the street's length (a bins) with road seen at each offset s."""
+
+    share: np.ndarray
+    s0: float
+
+    def at(self, lo: float, hi: float) -> float:
+        i0, i1 = int((lo - self.s0) / S_BIN), int((hi - self.s0) / S_BIN)
+        seg = self.share[max(i0, 0):max(i1, i0 + 1)]
+        return float(seg.mean()) if len(seg) else 0.0
+
+    def extent(self, side: int, limit: float = 0.12) -> float:
+        """Where the road seen from s = 0 towards ``side`` (+1 left, -1 right) ends."""
+        i = int(-self.s0 / S_BIN)
+        while 0 < i < len(self.share) - 1 and (abs(self.s0 + i * S_BIN) < 1.0 or self.share[i] >= limit):
+            i += side
+        return self.s0 + i * S_BIN
+
+
+def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
+    road = frame.label_ids[::4, ::4] == label_id("road")
+    v, u = np.nonzero(road & np.isfinite(frame.depth[::4, ::4]))
+    from .markings import _ground
+
+    xy = _window(_ground(frame, v * 4, u * 4), frame.camera.x)
+    a, s = to_road(xy, b, q)
+    near = (a >= 6) & (a <= 30)
+    occ, s0 = _coverage(a[near], s[near], S_BIN, 0)
+    return _RoadProfile(occ[:, 6:31].mean(axis=1), s0)
+
+
+def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadProfile,
+                  hand: int) -> list[Carriageway]:
+    def nearest(side: int) -> float | None:
+        lines = [k for k in kerbs if side * k.offset > EGO_HALF_LANE]
+        near = [k for k in lines if k.start <= KERB_NEAR] or lines  # seen near, else as far as seen
+        return min((k.offset for k in near), key=abs, default=None)
+
+    left, right = nearest(1), nearest(-1)
+    left = road.extent(+1) if left is None else left
+    right = road.extent(-1) if right is None else right
+    out = [_ego(right, left, [m for m in marks if right + 0.4 < m.offset < left - 0.4], hand)]
+    # beyond a kerb: other carriageways, road between two kerb lines (a dual road's other half)
+    offsets = sorted(k.offset for k in kerbs)
+    for lo, hi in zip(offsets, offsets[1:]):
+        if hi - lo < 2.5 or (lo < left and hi > right) or road.at(lo, hi) < 0.2:
+            continue
+        if lo >= left or hi <= right:
+            side = 1 if lo >= left else -1
+            inside = tuple(m for m in marks if lo + 0.4 < m.offset < hi - 0.4)
+            out.append(Carriageway(lo, hi, inside, None, side, "one-way"))
+    return out
+
+
+def _ego(right: float, left: float, marks: list[StreetLine], hand: int) -> Carriageway:
+    """The ego carriageway: its centre line (on the oncoming traffic's side of the ego
+    vehicle: left for right-hand traffic, ``hand`` = +1), or one-way with the ego vehicle."""
+    middle = (left + right) / 2
+    # a centre line has the ego vehicle's lane on one side and a whole lane of oncoming traffic
+    # on the other (a line closer to the kerb bounds a parking strip or a cycle lane)
+    kerb = left if hand > 0 else right
+    beyond = [m for m in marks if hand * m.offset > EGO_HALF_LANE and abs(kerb - m.offset) >= ONCOMING_LANE]
+    if beyond:
+        # nearest to the middle; a dashed line before a solid one (a centre line is mostly
+        # dashed, the line in front of parking bays or along a cycle lane solid)
+        centre = min(beyond, key=lambda m: abs(m.offset - middle) + (SOLID_PENALTY if m.kind == "solid" else 0.0))
+        return Carriageway(right, left, tuple(marks), centre.offset, 0, "marking")
+    if hand * middle >= TWO_WAY_OFFSET and left - right >= TWO_WAY_WIDTH:
+        return Carriageway(right, left, tuple(marks), middle, 0, "middle")
+    return Carriageway(right, left, tuple(marks), None, 0, "one-way")
+
+
+def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[Crossing]:
+    """Zebra crossings: stripes over at least 3 m across the ego carriageway within 6 m along."""
+    if len(zebra) < 20:
+        return []
+    a, s = to_road(zebra, b, q)
+    inside = (s >= ego.right - 0.5) & (s <= ego.left + 0.5)
+    a, s = a[inside], s[inside]
+    out: list[Crossing] = []
+    for a0 in np.arange(NEAR, FAR, 1.0):
+        sel = (a >= a0) & (a < a0 + 2.0)
+        if len(np.unique(np.floor(s[sel] / 0.5))) < 6:
+            continue
+        if out and a0 <= out[-1].end + 1.0:
+            out[-1] = Crossing(out[-1].start, a0 + 2.0, ego.right, ego.left)
+        else:
+            out.append(Crossing(a0, a0 + 2.0, ego.right, ego.left))
+    return [c for c in out if c.end - c.start <= 8.0]

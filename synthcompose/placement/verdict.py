@@ -1,0 +1,148 @@
+"""The traffic rules of a finished pose: what :func:`check_pose` adds to the geometric rules
+for an object placed with traffic sense (``traffic.py``), and what check-placement measures.
+
+Given the pose and what the placement said of it (its :class:`~.traffic.Traffic`), measured
+again on the frame's street (``street.py``, ``lanes.py``):
+
+* a vehicle in a lane: the lane's role is the one claimed (moving / parked) and the one its
+  orientation allows; a moving vehicle's centre within ``LANE_CENTRED`` of its lane's centre,
+  its footprint inside the lane (not across a marking), its heading within ``YAW_LIMIT`` of its
+  lane's direction; a parked one inside its strip, along (or at the row's angle to) the kerb,
+  nose the way of the traffic beside it; on a side street, the same for the side street's lane;
+* a person on the footway (never on the carriageway: the allowed surface), walking along it or
+  standing facing the road when so claimed;
+* a sign at the kerb's edge (within ``SIGN_BAND`` of ``traffic.sign_distance``), facing the
+  traffic of the lane beside it.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..geometry import Frame
+from .lanes import lane_at, lanes
+from .parked import parked_rows
+from .rules import Rejection
+from .traffic import LANE_MARGIN, Traffic, _side_street_spot, footway_kerb, hand_of, sign_distance, street_of
+
+#: a moving vehicle's centre is this close to its lane's centre (metres)
+LANE_CENTRED = 0.3
+#: headings within this of the lane's (or footway's) direction (degrees)
+YAW_LIMIT = 10.0
+#: a standing person faces the road within this (degrees)
+FACING_LIMIT = 45.0
+#: a sign stands within this of its place at the kerb's edge (traffic.sign_distance, metres)
+SIGN_BAND = 0.3
+#: a footprint may reach this far over its lane's markings (the markings' own width, metres)
+MARKING_SLACK = 0.05
+
+
+def _angle(a: float, b: float) -> float:
+    """|a - b| in degrees, wrapped to [0, 180]."""
+    return abs(math.degrees(math.remainder(a - b, 2 * math.pi)))
+
+
+def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim: Traffic | None,
+                  traffic: str = "right-hand") -> Rejection | None:
+    """The first traffic rule the pose ``m`` (V <- O) breaks, or None. ``claim``: what the
+    placement said of the object (None: not placed with traffic sense, nothing to check)."""
+    if claim is None:
+        return None
+    hand = hand_of(traffic)
+    street = street_of(frame, traffic)
+    yaw = math.atan2(m[1, 0], m[0, 0])
+    point = m[:3, 3]
+    if claim.role in ("moving", "parked"):
+        return _vehicle(frame, street, extents, m, yaw, orientation, claim, hand)
+    kerb = footway_kerb(frame, street, point, hand)
+    if kerb is None:
+        return Rejection("no footway direction", "no kerb near")
+    dist, towards, heading, direction, _, _ = kerb
+    if claim.role == "sign":
+        near = sign_distance(extents)
+        if not near - SIGN_BAND <= dist <= near + SIGN_BAND:
+            return Rejection("sign not at the kerb's edge", f"{dist:.2f} m from the kerb")
+        want = heading + (math.pi if direction > 0 else 0.0)
+        if _angle(yaw, want) > YAW_LIMIT:
+            return Rejection("sign not facing its traffic", f"{_angle(yaw, want):.0f} deg off")
+        return None
+    if claim.pose_hint == "walking":
+        off = min(_angle(yaw, heading), _angle(yaw, heading + math.pi))
+        if off > YAW_LIMIT:
+            return Rejection("not walking along the footway", f"{off:.0f} deg off its direction")
+    elif claim.pose_hint == "standing":
+        off = _angle(yaw, math.atan2(towards[1], towards[0]))
+        if off > FACING_LIMIT:
+            return Rejection("not facing the road", f"{off:.0f} deg off")
+    return None
+
+
+def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientation: str, claim: Traffic,
+             hand: int) -> Rejection | None:
+    l, w, _ = extents
+    point = m[:3, 3]
+    a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
+    lane = lane_at(lanes(frame, street, hand), s)
+    if lane is None:
+        if claim.where != "side street":
+            return Rejection("not in a lane", f"{s:.2f} m across the street, in no lane")
+        spot = _side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
+        if isinstance(spot, Rejection):
+            return spot
+        centre, want, _ = spot
+        off = float(np.hypot(*(centre[:2] - point[:2])))
+        if off > LANE_CENTRED:
+            return Rejection("not centred in its lane", f"{off:.2f} m from the side street's lane centre")
+        if _angle(yaw, want) > YAW_LIMIT:
+            return Rejection("facing against its lane" if _angle(yaw, want) > 90 else "not along its lane",
+                             f"{_angle(yaw, want):.0f} deg off the side street's lane")
+        return None
+    if lane.role == "none":
+        return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
+    role = "moving" if lane.role == "moving" else "parked"
+    if role != claim.role or (orientation in ("moving", "parked") and role != orientation):
+        return Rejection("not a moving lane" if role == "parked" else "not a parking place",
+                         f"a {lane.role} lane, claimed {claim.role}")
+    off = _angle(yaw, _lane_heading(frame, street, lane, a))
+    if off > YAW_LIMIT:
+        return Rejection("facing against its lane" if off > 90 else "not along its lane",
+                         f"{off:.0f} deg off its lane's direction")
+    # the footprint across the street: inside the lane (a marking is not crossed)
+    corners = np.array([[sx * l / 2, sy * w / 2, 0.0] for sx in (-1, 1) for sy in (-1, 1)]) @ m[:3, :3].T + point
+    _, cs = street.to_road(corners[:, :2])
+    slack = MARKING_SLACK if role == "moving" else MARKING_SLACK + 0.3
+    if cs.min() < lane.right - slack or cs.max() > lane.left + slack:
+        return Rejection("across a lane marking", f"the footprint spans {cs.min():.2f}..{cs.max():.2f} m, "
+                                                   f"its lane {lane.right:.2f}..{lane.left:.2f} m")
+    if role == "moving" and abs(s - lane.centre) > LANE_CENTRED:
+        return Rejection("not centred in its lane", f"{abs(s - lane.centre):.2f} m from its centre")
+    if role == "moving" and lane.width < w + 2 * LANE_MARGIN - 1e-6:
+        return Rejection("lane narrower than the vehicle", f"{lane.width:.2f} m for {w:.2f} m")
+    return None
+
+
+def lane_yaw_error(frame: Frame, extents, m: np.ndarray, traffic: str = "right-hand") -> float | None:
+    """Degrees (0-180) between a vehicle's heading and its lane's direction (None when it
+    stands in no lane of the street): 180 is a vehicle facing against its lane."""
+    hand = hand_of(traffic)
+    street = street_of(frame, traffic)
+    point = m[:3, 3]
+    a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
+    lane = lane_at(lanes(frame, street, hand), s)
+    yaw = math.atan2(m[1, 0], m[0, 0])
+    if lane is None:
+        spot = _side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
+        return None if isinstance(spot, Rejection) else _angle(yaw, spot[1])
+    return _angle(yaw, _lane_heading(frame, street, lane, a))
+
+
+def _lane_heading(frame: Frame, street, lane, a: float) -> float:
+    """The heading a vehicle in ``lane`` at ``a`` has (radians, V): its lane's direction; in
+    a parking strip turned by the frame's own parked cars' angle."""
+    want = float(street.heading(a)) + (0.0 if lane.direction > 0 else math.pi)
+    if lane.role == "parking":
+        row = parked_rows(frame, street).get(lane.kerb) if street.carriageways[lane.carriageway].side == 0 else None
+        if row is not None and row.layout != "parallel":
+            want += lane.direction * lane.kerb * math.radians(row.angle_deg)
+    return want
