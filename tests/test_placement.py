@@ -143,7 +143,7 @@ def test_check_pose_accepts_what_placement_accepted_and_names_the_rule_a_moved_p
     lifted[2, 3] += 0.5
     why = check_pose(fr, "car", SIZES["car"], lifted, rules)
     assert why is not None and why.rule in ("ground support", "ground plane"), why
-    for step in (1.0, -1.0, 0.5, -0.5):  # 1 m ahead of (or behind, or half a metre: where the ground
+    for step in (1.0, -1.0, 0.5, -0.5, 0.0):  # 1 m ahead of (or behind, or half a metre, or on it: where the ground
         # there holds it) the first car, on its plane
         onto = first.matrix
         onto[:3, 3] += step * onto[:3, 0]

@@ -70,7 +70,11 @@ def footprint_support(frame: Frame, m: np.ndarray, local: np.ndarray, allowed_id
     tol = noise.depth_band(foot_d, SEEN_TOL_REL * foot_d + SEEN_TOL_ABS)
     seen = finite & ((scene_d >= foot_d - tol) | (height < STEP_HEIGHT))
     allowed = label_mask(allowed_ids)[frame.label_ids[fv, fu]]
-    on_plane = finite & (np.abs(height) <= noise.height_band(foot_d, band_floor))
+    # supported: the real ground at the sample is on the pose's plane, and there (at its
+    # depth): ground of the same height farther away is no support (a footprint floating over
+    # a lower road towards a sidewalk behind it)
+    at_foot = np.abs(z - foot_d) <= tol
+    on_plane = finite & at_foot & (np.abs(height) <= noise.height_band(foot_d, band_floor))
     return {"on_screen": on_screen, "seen": seen, "allowed": allowed, "on_plane": on_plane}
 
 

@@ -37,19 +37,9 @@ from ..geometry import Frame
 from ..labels import label_id
 from .markings import find_markings
 from .road import surface_edges
+from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, S_BIN, SPAN, StreetLine,
+                           _axis, _coverage, _drop_rails, _lines, to_road)
 
-#: the street is seen over this range of a (metres ahead of the vehicle's origin)
-NEAR, FAR = 3.0, 48.0
-#: lateral extent of the street model, metres
-SPAN = 16.0
-#: histogram bins: across (metres) and along (metres)
-S_BIN, A_BIN = 0.1, 1.0
-#: a line must be seen over this many metres of a (kerbs, markings)
-MIN_KERB_COVER, MIN_MARK_COVER = 4.0, 3.0
-#: a marking seen over this run of metres without a break is solid
-SOLID_RUN = 6.0
-#: tram rails: two thin lines this far apart (metres)
-RAIL_GAUGE = (1.3, 1.65)
 #: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it)
 EGO_HALF_LANE = 0.8
 #: a centre line leaves at least this much room for the oncoming lane (metres); a solid line
@@ -58,30 +48,8 @@ ONCOMING_LANE, SOLID_PENALTY = 2.5, 1.5
 #: a two-way street without a centre marking: the ego vehicle is at least this far right of
 #: the middle, and the carriageway at least this wide
 TWO_WAY_OFFSET, TWO_WAY_WIDTH = 0.6, 5.0
-#: at most this many points go into the axis search, all within this many metres ahead (the
-#: street the ego vehicle is on, not the kerbs of a junction further on)
-AXIS_POINTS, AXIS_FAR = 3000, 30.0
-#: the street's axis is turned at most this much from the ego vehicle's heading (tan, 27 deg)
-MAX_SLOPE = 0.5
 #: the ego carriageway's kerbs: the nearest kerb line on each side seen this near
 KERB_NEAR = 18.0
-
-
-@dataclass(frozen=True)
-class StreetLine:
-    """A line along the street: ``offset`` s (metres, left positive), ``kind`` (``kerb``,
-    ``solid``, ``dashed``), where it is seen along the street (``start``, ``end``, metres of a)
-    and over how many metres (``cover``)."""
-
-    offset: float
-    kind: str
-    start: float
-    end: float
-    cover: float
-
-    def to_dict(self) -> dict:
-        return {"offset_m": round(self.offset, 3), "kind": self.kind, "from_m": round(self.start, 1),
-                "to_m": round(self.end, 1)}
 
 
 @dataclass(frozen=True)
@@ -163,13 +131,6 @@ class Street:
                 "crossings": [[round(v, 2) for v in (c.start, c.end, c.right, c.left)] for c in self.crossings]}
 
 
-def to_road(xy: np.ndarray, b: float, q: float) -> tuple[np.ndarray, np.ndarray]:
-    """(a, s) of (N, 2) ground-plan points against the axis y = b x + q x^2: a = x, s the
-    offset across the axis (y off the axis, times the cosine of its heading)."""
-    x, y = xy[:, 0], xy[:, 1]
-    return x, (y - b * x - q * x * x) * np.cos(np.arctan(b + 2 * q * x))
-
-
 def find_street(frame: Frame, hand: int = 1) -> Street:
     """The frame's street (cached on the frame) for right-hand (``hand`` = +1) or left-hand
     (-1) traffic: the centre line is on the side of the ego vehicle its oncoming traffic
@@ -200,138 +161,27 @@ def _build(frame: Frame, hand: int) -> Street:
                   tuple(crossings))
 
 
-def _coverage(a: np.ndarray, s: np.ndarray, s_bin: float = S_BIN, grow: int = 1) -> tuple[np.ndarray, float]:
-    """(S, A) bool occupancy of (a, s) points in bins across and along the street (grown by
-    ``grow`` bins across), and the s of bin 0."""
-    s0 = -SPAN - 0.5 * FAR * 0.8
-    n_s = int(2 * -s0 / s_bin) + 1
-    n_a = int((FAR + 10) / A_BIN) + 1
-    si = np.clip(((s - s0) / s_bin).astype(np.int64), 0, n_s - 1)
-    ai = np.clip((a / A_BIN).astype(np.int64), 0, n_a - 1)
-    occ = np.zeros((n_s, n_a), bool)
-    occ[si, ai] = True
-    if grow:
-        g = occ.copy()
-        for k in range(1, grow + 1):
-            g[k:] |= occ[:-k]
-            g[:-k] |= occ[k:]
-        occ = g
-    return occ, s0
-
-
-def _axis(points: np.ndarray) -> tuple[float, float]:
-    """The axis (b, q) that lines the kerb and marking points up along the street: the most
-    metres of lines covered, squared per 0.2 m of s (long lines count most)."""
-    if len(points) < 20:
-        return 0.0, 0.0
-    if len(points) > AXIS_POINTS:
-        points = points[:: int(math.ceil(len(points) / AXIS_POINTS))]
-
-    def score(b: float, q: float) -> float:
-        a, s = to_road(points, b, q)
-        occ, _ = _coverage(a, s, 0.2, 0)
-        cover = occ.sum(axis=1).astype(np.float64)
-        # the ego vehicle drives along its street: a turned axis must line up clearly more
-        return float((cover * cover).sum()) * (1.0 - 0.2 * abs(b) / MAX_SLOPE)
-
-    slopes = np.linspace(-MAX_SLOPE, MAX_SLOPE, 31)
-    best_b = max(slopes, key=lambda b: score(b, 0.0))
-    fine = [(b, q) for b in best_b + np.linspace(-0.04, 0.04, 9) for q in np.linspace(-0.004, 0.004, 9)]
-    b, q = max(fine, key=lambda bq: score(*bq))
-    return _refine(points, float(b), float(q))
-
-
-def _refine(points: np.ndarray, b: float, q: float, iterations: int = 2) -> tuple[float, float]:
-    """The axis refined by least squares: the strongest lines (points within 0.25 m of each)
-    as parallel curves y = b x + q x^2 + c_k, one offset each, the axis shared."""
-    for _ in range(iterations):
-        lines = [ln for ln in _lines(points, b, q, SOLID_RUN, "any") if ln.cover >= SOLID_RUN][:6]
-        if not lines:
-            break
-        _, s = to_road(points, b, q)
-        rows, ys = [], []
-        for k, ln in enumerate(lines):
-            near = np.abs(s - ln.offset) < 0.25
-            x = points[near, 0]
-            rows.append(np.column_stack([x, x * x] + [np.full(len(x), float(j == k)) for j in range(len(lines))]))
-            ys.append(points[near, 1])
-        A, y = np.concatenate(rows), np.concatenate(ys)
-        if len(y) < 20:
-            break
-        # the bend only where lines are seen over a long stretch, else the slope alone
-        bend = len(lines) >= 2 and A[:, 0].max() - A[:, 0].min() >= 25.0
-        if not bend:
-            A, q = np.delete(A, 1, axis=1), 0.0
-        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-        b = float(np.clip(coef[0], -MAX_SLOPE, MAX_SLOPE))
-        if bend:
-            q = float(np.clip(coef[1], -0.005, 0.005))
-    return b, q
-
-
-def _lines(points: np.ndarray, b: float, q: float, min_cover: float, kind: str | None) -> list[StreetLine]:
-    """Peaks of the points' offset s, each covered over at least ``min_cover`` metres of a."""
-    if len(points) < 10:
-        return []
-    a, s = to_road(points, b, q)
-    occ, s0 = _coverage(a, s)
-    cover = occ.sum(axis=1) * A_BIN
-    out: list[StreetLine] = []
-    taken = np.zeros(len(cover), bool)
-    for i in np.argsort(-cover, kind="stable"):
-        if cover[i] < min_cover:
-            break
-        if taken[max(0, i - 6):i + 7].any():  # within 0.6 m of a stronger line
-            continue
-        taken[i] = True
-        centre = s0 + (i + 0.5) * S_BIN
-        near = np.abs(s - centre) <= 0.15
-        offset = float(np.median(s[near])) if near.any() else centre
-        cols = np.flatnonzero(occ[i])
-        run = _longest_run(cols)
-        out.append(StreetLine(offset, kind or ("solid" if run * A_BIN >= SOLID_RUN else "dashed"),
-                              float(cols.min() * A_BIN), float((cols.max() + 1) * A_BIN), float(cover[i])))
-    return out
-
-
-def _longest_run(cols: np.ndarray, gap: int = 1) -> int:
-    """Longest run of bins in sorted ``cols`` with breaks of at most ``gap`` bins."""
-    if not len(cols):
-        return 0
-    breaks = np.flatnonzero(np.diff(cols) > gap + 1)
-    starts = np.concatenate([[0], breaks + 1])
-    ends = np.concatenate([breaks, [len(cols) - 1]])
-    return int((cols[ends] - cols[starts] + 1).max())
-
-
-def _drop_rails(lines: list[StreetLine]) -> list[StreetLine]:
-    """Lane lines less the pairs of tram rails (two lines a rail gauge apart, neither dashed)."""
-    rails = set()
-    for i, m in enumerate(lines):
-        for j, n in enumerate(lines):
-            if i < j and RAIL_GAUGE[0] <= abs(m.offset - n.offset) <= RAIL_GAUGE[1] and "dashed" not in (m.kind, n.kind):
-                rails |= {i, j}
-    return [m for k, m in enumerate(lines) if k not in rails]
-
-
 @dataclass(frozen=True)
 class _RoadProfile:
-    """Share of the street's length (a bins) with road seen at each offset s."""
+    """Share of the street's length (a bins 6-30 m) with road seen at each offset s, of the
+    length the camera sees there (inside the image)."""
 
     share: np.ndarray
     s0: float
+    seen: np.ndarray  # cells seen per offset
 
     def at(self, lo: float, hi: float) -> float:
         i0, i1 = int((lo - self.s0) / S_BIN), int((hi - self.s0) / S_BIN)
         seg = self.share[max(i0, 0):max(i1, i0 + 1)]
         return float(seg.mean()) if len(seg) else 0.0
 
-    def extent(self, side: int, limit: float = 0.12) -> float:
-        """Where the road seen from s = 0 towards ``side`` (+1 left, -1 right) ends."""
+    def extent(self, side: int, limit: float = 0.25) -> tuple[float, bool]:
+        """Where the road seen from s = 0 towards ``side`` (+1 left, -1 right) ends, and whether
+        it ends where the camera stops seeing it (not where the road does)."""
         i = int(-self.s0 / S_BIN)
         while 0 < i < len(self.share) - 1 and (abs(self.s0 + i * S_BIN) < 1.0 or self.share[i] >= limit):
             i += side
-        return self.s0 + i * S_BIN
+        return self.s0 + i * S_BIN, bool(self.seen[i] < 3)
 
 
 def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
@@ -343,7 +193,20 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     a, s = to_road(xy, b, q)
     near = (a >= 6) & (a <= 30)
     occ, s0 = _coverage(a[near], s[near], S_BIN, 0)
-    return _RoadProfile(occ[:, 6:31].mean(axis=1), s0)
+    # the cells the camera sees: their centres on the ground plane inside the image
+    cells_s = s0 + (np.arange(occ.shape[0]) + 0.5) * S_BIN
+    cells_a = np.arange(6, 31) + 0.5
+    aa, ss = np.meshgrid(cells_a, cells_s)
+    t = np.arctan(b + 2 * q * aa)
+    x = aa - ss * np.sin(t)
+    y = b * aa + q * aa * aa + ss * np.cos(t)
+    opt = frame.to_optical(np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        uv = frame.camera.project(opt)
+    H, W = frame.shape
+    seen = ((opt[:, 2] > 1.0) & (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)).reshape(aa.shape)
+    share = occ[:, 6:31].sum(axis=1) / np.maximum(seen.sum(axis=1), 1)
+    return _RoadProfile(np.where(seen.sum(axis=1) >= 3, share, 0.0), s0, seen.sum(axis=1))
 
 
 def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadProfile,
@@ -354,8 +217,15 @@ def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadP
         return min((k.offset for k in near), key=abs, default=None)
 
     left, right = nearest(1), nearest(-1)
-    left = road.extent(+1) if left is None else left
-    right = road.extent(-1) if right is None else right
+    # no kerb seen on a side: where the road ends; where the camera does not see that far
+    # (a street turned away), as far as the other kerb (a street is about symmetric)
+    for side in (1, -1):
+        if (left if side > 0 else right) is None:
+            edge, unseen = road.extent(side)
+            other = right if side > 0 else left
+            if unseen and other is not None:
+                edge = side * max(abs(edge), abs(other))
+            left, right = (edge, right) if side > 0 else (left, edge)
     out = [_ego(right, left, [m for m in marks if right + 0.4 < m.offset < left - 0.4], hand)]
     # beyond a kerb: other carriageways, road between two kerb lines (a dual road's other half)
     offsets = sorted(k.offset for k in kerbs)

@@ -293,15 +293,15 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
                        hand: int) -> np.ndarray:
     """(N,) bool: which candidate ground points (N, 2) (V) can hold the object in traffic: a
     vehicle in a lane of its kind wide enough for it, or off the street's carriageways (a side
-    street); a sign within reach of a kerb of the street (all of them where none is). People
-    anywhere on their footway."""
+    street); a sign at a kerb's edge of the street (all of them where none is); a person on a
+    footway, off the kerbs' stones and the carriageways."""
     a, s = street.to_road(xy)
     if orientation in ("along-road", "moving", "parked"):
         keep = np.zeros(len(s), bool)
         w = extents[1]
         for lane in lanes(frame, street, hand):
             ok = (lane.role == "moving" and orientation != "parked" and lane.width >= w + 2 * LANE_MARGIN) or \
-                 (lane.role == "parking" and orientation != "moving")
+                 (lane.role == "parking" and orientation != "moving" and lane.width >= min(extents[:2]) + PARK_GAP - 0.1)
             if ok:
                 keep |= (s >= lane.right) & (s <= lane.left)
         if orientation != "parked":
@@ -317,7 +317,11 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
                 d = side * (s - kerb)
                 near |= np.abs(d - sign_distance(extents)) <= 0.35  # seen there, not only behind a car
         return near
-    return np.ones(len(s), bool)
+    # people: on the footway, not on a kerb's stones or in a carriageway
+    keep = np.ones(len(s), bool)
+    for cw in street.carriageways:
+        keep &= (s < cw.right - KERB_CLEARANCE - 0.1) | (s > cw.left + KERB_CLEARANCE + 0.1)
+    return keep
 
 
 def street_of(frame: Frame, traffic: str) -> Street:
