@@ -37,7 +37,7 @@ from ..geometry import Frame
 from ..labels import label_id
 from .markings import find_markings
 from .road import surface_edges
-from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, S_BIN, SPAN, StreetLine,
+from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, S_BIN, SOLID_RUN, SPAN, StreetLine,
                            _axis, _coverage, _drop_rails, _lines, to_road)
 
 #: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it)
@@ -48,6 +48,8 @@ ONCOMING_LANE, SOLID_PENALTY = 2.5, 1.5
 #: a two-way street without a centre marking: the ego vehicle is at least this far right of
 #: the middle, and the carriageway at least this wide
 TWO_WAY_OFFSET, TWO_WAY_WIDTH = 0.6, 5.0
+#: zebra stripes repeat across the street every this many metres
+ZEBRA_PERIOD = 1.0
 #: the ego carriageway's kerbs: the nearest kerb line on each side seen this near
 KERB_NEAR = 18.0
 
@@ -153,10 +155,14 @@ def _build(frame: Frame, hand: int) -> Street:
     both = np.concatenate([kerbs, marks])
     b, q = _axis(both[both[:, 0] - frame.camera.x <= AXIS_FAR])
     kerb_lines = _lines(kerbs, b, q, MIN_KERB_COVER, "kerb")
-    mark_lines = _drop_rails(_lines(marks, b, q, MIN_MARK_COVER, None))
     road = _road_profile(frame, b, q)
+    crossings = _crossings(find_markings(frame).zebra, b, q, _carriageways(kerb_lines, [], road, hand)[0])
+    if crossings:  # a zebra's stripes are no lane lines
+        a = marks[:, 0]
+        marks = marks[~np.any([(a >= c.start - 0.5) & (a <= c.end + 0.5) for c in crossings], axis=0)]
+    mark_lines = _drop_rails(_lines(marks, b, q, MIN_MARK_COVER, None))
     carriageways = _carriageways(kerb_lines, mark_lines, road, hand)
-    crossings = _crossings(find_markings(frame).zebra, b, q, carriageways[0])
+    crossings = [Crossing(c.start, c.end, carriageways[0].right, carriageways[0].left) for c in crossings]
     return Street(b, q, tuple(sorted(kerb_lines + mark_lines, key=lambda l: l.offset)), tuple(carriageways),
                   tuple(crossings))
 
@@ -247,6 +253,7 @@ def _ego(right: float, left: float, marks: list[StreetLine], hand: int) -> Carri
     # on the other (a line closer to the kerb bounds a parking strip or a cycle lane)
     kerb = left if hand > 0 else right
     beyond = [m for m in marks if hand * m.offset > EGO_HALF_LANE and abs(kerb - m.offset) >= ONCOMING_LANE]
+    beyond = [m for m in beyond if m.cover >= SOLID_RUN] or beyond  # seen over a stretch: not a stripe
     if beyond:
         # nearest to the middle; a dashed line before a solid one (a centre line is mostly
         # dashed, the line in front of parking bays or along a cycle lane solid)
@@ -258,7 +265,8 @@ def _ego(right: float, left: float, marks: list[StreetLine], hand: int) -> Carri
 
 
 def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[Crossing]:
-    """Zebra crossings: stripes over at least 3 m across the ego carriageway within 6 m along."""
+    """Zebra crossings: stripes over at least 2.5 m across the ego carriageway within 3 m
+    along it, one every ZEBRA_PERIOD (the stripes' positions across agree modulo the period)."""
     if len(zebra) < 20:
         return []
     a, s = to_road(zebra, b, q)
@@ -266,11 +274,20 @@ def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[
     a, s = a[inside], s[inside]
     out: list[Crossing] = []
     for a0 in np.arange(NEAR, FAR, 1.0):
-        sel = (a >= a0) & (a < a0 + 2.0)
-        if len(np.unique(np.floor(s[sel] / 0.5))) < 6:
+        sel = (a >= a0) & (a < a0 + 3.0)
+        if len(np.unique(np.floor(s[sel] / 0.5))) < 5:
             continue
-        if out and a0 <= out[-1].end + 1.0:
-            out[-1] = Crossing(out[-1].start, a0 + 2.0, ego.right, ego.left)
+        phase = np.exp(2j * np.pi * s[sel] / ZEBRA_PERIOD)
+        if abs(phase.mean()) < 0.4:
+            continue
+        if out and a0 <= out[-1].end:
+            out[-1] = Crossing(out[-1].start, a0 + 3.0, ego.right, ego.left)
         else:
-            out.append(Crossing(a0, a0 + 2.0, ego.right, ego.left))
-    return [c for c in out if c.end - c.start <= 8.0]
+            out.append(Crossing(a0, a0 + 3.0, ego.right, ego.left))
+    # each crossing as long as its stripes are seen (a zebra is 3-6 m long)
+    found = []
+    for c in out:
+        lo, hi = np.percentile(a[(a >= c.start) & (a <= c.end)], [5, 95])
+        if hi - lo <= 8.0:
+            found.append(Crossing(float(lo), float(hi), ego.right, ego.left))
+    return found
