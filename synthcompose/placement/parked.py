@@ -96,7 +96,9 @@ def _rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
     out: dict[int, ParkedRow] = {}
     for side, kerb in ((-1, ego.right), (+1, ego.left)):
         inward = -side * (s - kerb)  # metres from the kerb into the carriageway
-        sel = (inward >= -ROW_BEYOND) & (inward <= ROW_REACH) & (a >= 5.0) & (a <= 40.0)
+        # on a frame without labels a wall or a hedge beyond the kerb stands as high as a car
+        beyond = ROW_BEYOND if frame.labelled else -0.2
+        sel = (inward >= -beyond) & (inward <= ROW_REACH) & (a >= 5.0) & (a <= 40.0)
         if sel.sum() < 10:
             continue
         bins = a[sel].astype(np.int64)

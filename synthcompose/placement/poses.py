@@ -73,8 +73,10 @@ def footprint_support(frame: Frame, m: np.ndarray, local: np.ndarray, allowed_id
     # supported: the real ground at the sample is on the pose's plane, and there (at its
     # depth): ground of the same height farther away is no support (a footprint floating over
     # a lower road towards a sidewalk behind it)
-    at_foot = np.abs(z - foot_d) <= tol
-    on_plane = finite & at_foot & (np.abs(height) <= noise.height_band(foot_d, band_floor))
+    # (along the ray, the ground seen at a grazing angle moves by the height band's worth)
+    band = noise.height_band(foot_d, band_floor)
+    at_foot = np.abs(z - foot_d) <= np.maximum(tol, 1.5 * band * foot_d / noise.camera_height)
+    on_plane = finite & at_foot & (np.abs(height) <= band)
     return {"on_screen": on_screen, "seen": seen, "allowed": allowed, "on_plane": on_plane}
 
 

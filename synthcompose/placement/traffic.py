@@ -22,7 +22,7 @@ import numpy as np
 
 from ..geometry import Frame
 from ..labels import label_id
-from .lanes import _direction, lane_at, lanes
+from .lanes import Lane, _direction, lane_at, lanes
 from .parked import parked_rows
 from .road import road_line
 from .rules import KERB_CLEARANCE, Rejection
@@ -139,10 +139,7 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
         yaw = heading + (0.0 if lane.direction > 0 else math.pi) + float(rng.uniform(-jitter, jitter))
         role = "moving"
     else:
-        row = parked_rows(frame, street).get(lane.kerb) if cw.side == 0 else None
-        layout = row.layout if row is not None else "parallel"
-        angle = 0.0 if row is None or layout == "parallel" else math.radians(row.angle_deg)
-        across = abs(w * math.cos(angle)) + abs(l * math.sin(angle))  # the footprint's depth from the kerb
+        layout, angle, across = parking_fit(frame, street, lane, extents)
         if lane.width < across + PARK_GAP - 0.1:
             return Rejection("parking place narrower than the vehicle", f"{lane.width:.2f} m for {across:.2f} m")
         kerb = lane.right if lane.kerb < 0 else lane.left
@@ -156,6 +153,17 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
                       "with" if lane.direction > 0 else "against", a, target, math.degrees(heading), cw.centre,
                       (lane.right, lane.left), None, layout)
     return np.array([xy[0], xy[1], point[2]]), yaw, traffic
+
+
+def parking_fit(frame: Frame, street: Street, lane: Lane, extents) -> tuple[str, float, float]:
+    """How a vehicle of ``extents`` parks in a parking ``lane``: as the frame's own row along
+    that kerb (layout, angle to the street in radians, the footprint's depth from the kerb in
+    metres); parallel where the frame has no row."""
+    l, w, _ = extents
+    row = parked_rows(frame, street).get(lane.kerb) if street.carriageways[lane.carriageway].side == 0 else None
+    layout = row.layout if row is not None else "parallel"
+    angle = 0.0 if row is None or layout == "parallel" else math.radians(row.angle_deg)
+    return layout, angle, abs(w * math.cos(angle)) + abs(l * math.sin(angle))
 
 
 def _side_street_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode: str,
@@ -301,7 +309,8 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
         w = extents[1]
         for lane in lanes(frame, street, hand):
             ok = (lane.role == "moving" and orientation != "parked" and lane.width >= w + 2 * LANE_MARGIN) or \
-                 (lane.role == "parking" and orientation != "moving" and lane.width >= min(extents[:2]) + PARK_GAP - 0.1)
+                 (lane.role == "parking" and orientation != "moving"
+                  and lane.width >= parking_fit(frame, street, lane, extents)[2] + PARK_GAP - 0.1)
             if ok:
                 keep |= (s >= lane.right) & (s <= lane.left)
         if orientation != "parked":
