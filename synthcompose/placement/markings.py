@@ -27,6 +27,8 @@ MARK_PROBE = 0.25
 #: a zebra stripe's pixel: brighter than the road this far to both sides, and not thinner
 #: than a line (bright at ZEBRA_INNER to both sides)
 ZEBRA_PROBE, ZEBRA_INNER = 0.5, 0.15
+#: a zebra stripe is this many times brighter than three quarters of the road
+ZEBRA_BRIGHT = 1.5
 #: brighter by at least this many grey levels and this share of the road's grey
 MIN_CONTRAST, MIN_RATIO = 8.0, 0.25
 #: the road's surfaces markings are painted on
@@ -79,6 +81,8 @@ def _find(frame: Frame) -> Markings:
     wide = usable & ~line & (centre - side > np.maximum(MIN_CONTRAST, MIN_RATIO * side))
     left, right = probe(ZEBRA_INNER)
     wide &= np.minimum(left, right) - side > np.maximum(MIN_CONTRAST, MIN_RATIO * side)
+    # paint, not a sunlit gap between shadows: far brighter than most of the road
+    wide &= centre >= ZEBRA_BRIGHT * np.percentile(centre, 75)
     return Markings(_ground(frame, v[line] * 2, u[line] * 2), _ground(frame, v[wide] * 2, u[wide] * 2))
 
 

@@ -266,7 +266,8 @@ def _ego(right: float, left: float, marks: list[StreetLine], hand: int) -> Carri
 
 def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[Crossing]:
     """Zebra crossings: stripes over at least 2.5 m across the ego carriageway within 3 m
-    along it, one every ZEBRA_PERIOD (the stripes' positions across agree modulo the period)."""
+    along it, one every ZEBRA_PERIOD (the stripes' positions across agree modulo the period),
+    across the ego vehicle's lane and on both sides of it."""
     if len(zebra) < 20:
         return []
     a, s = to_road(zebra, b, q)
@@ -279,6 +280,9 @@ def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[
             continue
         phase = np.exp(2j * np.pi * s[sel] / ZEBRA_PERIOD)
         if abs(phase.mean()) < 0.4:
+            continue
+        # across the ego vehicle's lane too, stripes on both sides of it
+        if not (np.abs(s[sel]) < 1.5).any() or s[sel].min() > -1.0 or s[sel].max() < 1.0:
             continue
         if out and a0 <= out[-1].end:
             out[-1] = Crossing(out[-1].start, a0 + 3.0, ego.right, ego.left)

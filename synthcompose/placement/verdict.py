@@ -22,9 +22,9 @@ import numpy as np
 
 from ..geometry import Frame
 from .lanes import lane_at, lanes
-from .parked import parked_rows
 from .rules import Rejection
-from .traffic import LANE_MARGIN, Traffic, _side_street_spot, footway_kerb, hand_of, sign_distance, street_of
+from .traffic import (LANE_MARGIN, Traffic, _side_street_spot, footway_kerb, hand_of, parking_fit, sign_distance,
+                      street_of)
 
 #: a moving vehicle's centre is this close to its lane's centre (metres)
 LANE_CENTRED = 0.3
@@ -137,12 +137,10 @@ def lane_yaw_error(frame: Frame, extents, m: np.ndarray, traffic: str = "right-h
     return _angle(yaw, _lane_heading(frame, street, lane, a))
 
 
-def _lane_heading(frame: Frame, street, lane, a: float) -> float:
+def _lane_heading(frame: Frame, street, lane, a: float, extents=(4.4, 1.8, 1.5)) -> float:
     """The heading a vehicle in ``lane`` at ``a`` has (radians, V): its lane's direction; in
     a parking strip turned by the frame's own parked cars' angle."""
     want = float(street.heading(a)) + (0.0 if lane.direction > 0 else math.pi)
     if lane.role == "parking":
-        row = parked_rows(frame, street).get(lane.kerb) if street.carriageways[lane.carriageway].side == 0 else None
-        if row is not None and row.layout != "parallel":
-            want += lane.direction * lane.kerb * math.radians(row.angle_deg)
+        want += lane.direction * lane.kerb * parking_fit(frame, street, lane, extents)[1]
     return want
