@@ -4,11 +4,13 @@ traffic), on generated streets and on real frames (SYNTHCOMPOSE_REAL_ROOT; skipp
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from synthcompose.check import check_output
+from synthcompose.check import check_output, check_record
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets
 from synthcompose.record import RECORD_VERSION, read_record
@@ -55,6 +57,21 @@ def test_placement_and_check_agree_on_generated_streets(tmp_path):
     out = tmp_path / "out"
     assert main(["batch", str(demo_manifest(tmp_path / "m.json", root, out, seed=2)), "--no-progress"]) == 0
     assert _no_disagreement(out) >= 10
+    # the checker sees a wrong-way vehicle: the same record with a car turned round fails
+    for path in sorted((out / "synthcompose").rglob("*_synthcompose.json")):
+        record = read_record(path)
+        cars = [o for o in record.objects if o.traffic and o.traffic["role"] == "moving"]
+        if cars:
+            break
+    else:
+        pytest.fail("no moving vehicle placed")
+    car = cars[0]
+    m = np.array(car.pose.vehicle)
+    m[:3, :2] = -m[:3, :2]  # turned by 180 degrees about its up axis, same place
+    turned = replace(car, pose=replace(car.pose, vehicle=tuple(map(tuple, m))))
+    bad = record.with_(objects=tuple(turned if o is car else o for o in record.objects))
+    check = next(c for c in check_record(bad) if c.index == car.index)
+    assert "rules" in check.failures and "against its lane" in check.rule and check.yaw_to_road_deg > 170
 
 
 @needs_real
