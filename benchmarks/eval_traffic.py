@@ -14,8 +14,9 @@ centre lines and markings placement found):
   against; on a one-way carriageway along; on the other half of a dual road by its side; a
   vehicle facing the other way is counted "against its lane". Also the issue's plain measure:
   vehicles within 1.6 m of the camera's line (V's y), ahead of it, facing the camera;
-* **markings**: a moving vehicle whose footprint spans a recorded marking of its carriageway
-  (seen at its distance along the street) is "across a marking";
+* **markings**: a moving vehicle whose footprint spans a recorded lane marking (a boundary of
+  the recorded lanes, seen at its distance along the street) is "across a lane marking"; a line
+  the lanes left out (tram rails, a short stretch of paint) under it is counted apart;
 * **people** whose footprint centre lies on a carriageway (between its kerbs) and not on a
   recorded crossing; **overlaps**: two objects' footprints intersecting, people closer than 0.5 m;
 * **disagreement**: objects that check-placement --strict (``synthcompose.check``) fails.
@@ -103,11 +104,20 @@ def analyse(out: Path) -> dict:
                     findings.append((rec.image_set, obj.index, obj.name, f"against its lane (s {s:.2f} m)"))
                 if t.get("role") == "moving":
                     _, cs = to_road(footprint_corners(m, obj.extents_m), b, q)
+                    inside = (cs.min() + 0.05, cs.max() - 0.05)
+                    bounds = {round(e, 3) for ln in street.get("lanes", []) for e in (ln["right_m"], ln["left_m"])}
                     for cw in street["carriageways"]:
                         for mk in cw["markings"]:
-                            if mk["from_m"] - 1 <= a <= mk["to_m"] + 1 and cs.min() + 0.05 < mk["offset_m"] < cs.max() - 0.05:
-                                counts["across a marking"] += 1
-                                findings.append((rec.image_set, obj.index, obj.name, f"across the marking at {mk['offset_m']:.2f} m"))
+                            if not (mk["from_m"] - 1 <= a <= mk["to_m"] + 1 and inside[0] < mk["offset_m"] < inside[1]):
+                                continue
+                            # a lane boundary; or a line the lanes dropped (rails, a stretch of a
+                            # double line), counted apart
+                            if any(abs(mk["offset_m"] - e) < 0.05 for e in bounds):
+                                counts["across a lane marking"] += 1
+                                findings.append((rec.image_set, obj.index, obj.name,
+                                                 f"across the lane marking at {mk['offset_m']:.2f} m"))
+                            else:
+                                counts["over a line that bounds no lane"] += 1
             elif obj.class_name == "person":
                 counts["people"] += 1
                 on_road = any(cw["right_m"] <= s <= cw["left_m"] for cw in street["carriageways"])

@@ -59,6 +59,10 @@ class Lane:
     def width(self) -> float:
         return self.left - self.right
 
+    def to_dict(self) -> dict:
+        return {"right_m": round(self.right, 3), "left_m": round(self.left, 3), "role": self.role,
+                "direction": self.direction, "carriageway": self.carriageway}
+
 
 def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
     """Every lane of the street (cached on the frame)."""

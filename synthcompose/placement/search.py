@@ -143,12 +143,14 @@ class _TracedCounter(Counter):
         super().__setitem__(key, value)
 
 
-def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, tol: float = 0.3) -> np.ndarray | None:
+def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, noise, floor: float = 0.3
+                 ) -> np.ndarray | None:
     """The real ground point (V) seen at ``point``'s place on the ground plan (a candidate moved
     to its place in traffic): the pixel it projects to, its real point's height taken and the
     projection done again (the ground there may be higher or lower than where it was drawn).
-    None when that pixel is not allowed ground or its real point stays more than ``tol``
-    metres away on the ground plan (the place is hidden, or across a kerb)."""
+    None when that pixel is not allowed ground or its real point stays farther away on the
+    ground plan than the stereo's depth band there (at least ``floor`` metres): the place is
+    hidden, or across a kerb (15 cm at a grazing angle moves the ground seen by metres)."""
     cam = frame.camera
     H, W = frame.shape
     lut = label_mask(allowed_ids)
@@ -161,6 +163,7 @@ def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, tol: 
         if not (0 <= u < W and 0 <= v < H) or not np.isfinite(frame.depth[v, u]) or not lut[frame.label_ids[v, u]]:
             return None
         real = back_project(frame.depth, cam, np.array([v]), np.array([u]))[1][0].astype(float)
+        tol = float(noise.depth_band(float(frame.depth[v, u]), floor))
         if math.hypot(real[0] - p[0], real[1] - p[1]) <= tol:
             return np.array([p[0], p[1], real[2]])
         p[2] = real[2]
@@ -220,7 +223,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
                 rejections[spot.reason] += 1
                 continue
             moved, yaw, claim = spot
-            point = _seen_ground(frame, moved, allowed_ids)
+            point = _seen_ground(frame, moved, allowed_ids, tests.noise)
             if point is None:
                 rejections["its place in traffic is not seen on the ground"] += 1
                 continue

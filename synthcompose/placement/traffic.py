@@ -37,6 +37,9 @@ KERB_WAIT = 1.2
 #: a sign's plate (its footprint across the footway) ends this far from the kerb (metres): the
 #: kerb clearance of the placement rules and a little more
 SIGN_KERB = KERB_CLEARANCE + 0.1
+#: a sign stands at the kerb's edge: its plate's edge within SIGN_KERB to SIGN_KERB + SIGN_EDGE
+#: of the kerb (metres)
+SIGN_EDGE = 0.5
 #: a footway belongs to the street when it is within this of one of its kerbs (metres)
 FOOTWAY_REACH = 6.0
 #: the orientations that follow traffic
@@ -289,7 +292,10 @@ def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.
     dist, towards, heading, direction, where, side = kerb
     if dist > 3.0:
         return Rejection("sign too far from the kerb", f"{dist:.1f} m from it")
-    xy = point[:2] + towards * (dist - sign_distance(extents))
+    # at the kerb's edge: moved there when it was drawn nearer, or more than SIGN_EDGE beyond
+    near = sign_distance(extents)
+    target = min(max(dist, near), near + SIGN_EDGE) if dist <= near + SIGN_EDGE else near + SIGN_EDGE / 2
+    xy = point[:2] + towards * (dist - target)
     # the face (the model's +x) looks against the traffic that reads it
     yaw = heading + (math.pi if direction > 0 else 0.0) + float(rng.uniform(-jitter, jitter))
     a, s = (float(v[0]) for v in street.to_road(xy[None]))
@@ -324,7 +330,8 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
         for cw in street.carriageways:
             for kerb, side in ((cw.right, -1), (cw.left, 1)):
                 d = side * (s - kerb)
-                near |= np.abs(d - sign_distance(extents)) <= 0.35  # seen there, not only behind a car
+                sd = sign_distance(extents)  # seen there, not only behind a car
+                near |= (d >= sd - 0.3) & (d <= sd + SIGN_EDGE + 0.3)
         return near
     # people: on the footway, not on a kerb's stones or in a carriageway
     keep = np.ones(len(s), bool)

@@ -11,7 +11,8 @@ again on the frame's street (``street.py``, ``lanes.py``):
   nose the way of the traffic beside it; on a side street, the same for the side street's lane;
 * a person on the footway (never on the carriageway: the allowed surface), walking along it or
   standing facing the road when so claimed;
-* a sign at the kerb's edge (within ``SIGN_BAND`` of ``traffic.sign_distance``), facing the
+* a sign at the kerb's edge (from ``traffic.sign_distance`` to ``SIGN_EDGE`` beyond, give or
+  take ``SIGN_BAND``), facing the
   traffic of the lane beside it.
 """
 from __future__ import annotations
@@ -23,8 +24,8 @@ import numpy as np
 from ..geometry import Frame
 from .lanes import lane_at, lanes
 from .rules import Rejection
-from .traffic import (LANE_MARGIN, Traffic, _side_street_spot, footway_kerb, hand_of, parking_fit, sign_distance,
-                      street_of)
+from .traffic import (LANE_MARGIN, SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, parking_fit,
+                      sign_distance, street_of)
 
 #: a moving vehicle's centre is this close to its lane's centre (metres)
 LANE_CENTRED = 0.3
@@ -61,7 +62,7 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
     dist, towards, heading, direction, _, _ = kerb
     if claim.role == "sign":
         near = sign_distance(extents)
-        if not near - SIGN_BAND <= dist <= near + SIGN_BAND:
+        if not near - SIGN_BAND <= dist <= near + SIGN_EDGE + SIGN_BAND:
             return Rejection("sign not at the kerb's edge", f"{dist:.2f} m from the kerb")
         want = heading + (math.pi if direction > 0 else 0.0)
         if _angle(yaw, want) > YAW_LIMIT:

@@ -4,6 +4,7 @@ and the record's first part)."""
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +19,7 @@ from ..models import Model, load_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
 from ..placement.rules import rules_dict
+from ..placement.lanes import lanes
 from ..placement.traffic import hand_of
 from ..placements import SavedPlacement, saved_result
 from ..record import ImageSetRecord
@@ -85,6 +87,33 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
 
 
+def _place_one(m: Manifest, prep: Prepared, spec: ObjectSpec, objects: list, taken: set[int],
+               saved_object=None, trace: list | None = None) -> "PlacedObject | dict":
+    """One object placed among ``objects`` (placed before it): its PlacedObject, or the
+    failure's record (name, class, reason, attempts, rejections)."""
+    ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
+    model = load_model(spec.model, spec.size, spec.up, spec.forward)
+    others = [o.placement for o in objects]
+    result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
+                          spec.orientation, others, trace=trace) \
+        if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
+    if result.placement is None:
+        return {"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
+                "attempts": result.attempts, "rejections": result.rejections}
+    check = None
+    if saved_object is not None:  # a saved pose is used as it is; the record says whether the
+        # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
+        why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
+                         spec.allowed_surfaces, others)
+        check = {"ok": True}
+        if why is not None:
+            check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+            log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
+    inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+    taken.add(inst)
+    return PlacedObject(spec, model, result, inst, check)
+
+
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``m.objects_per_image`` objects (by ``weights``) and place each in the frame, the
@@ -99,29 +128,24 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model = load_model(spec.model, spec.size, spec.up, spec.forward)
-            others = [o.placement for o in objects]
-            result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
-                                  spec.orientation, others, trace=trace) \
-                if saved is None else saved_result(frame, spec.class_name, model.extents, saved.objects[k])
-            if result.placement is None:
-                failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
-                                 "attempts": result.attempts, "rejections": result.rejections})
-                continue
-            check = None
-            if saved is not None:  # a saved pose is used as it is; the record says whether the
-                # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
-                why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
-                                 spec.allowed_surfaces, others)
-                check = {"ok": True}
-                if why is not None:
-                    check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
-                    log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
-            inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
-            taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check))
+            done = _place_one(m, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace)
+            (objects if isinstance(done, PlacedObject) else failures).append(done)
+        if saved is None and not objects and failures:
+            # a frame that got none of its objects tries each of them once more (twice the
+            # attempts): a frame with free road or footway gets an object where one fits
+            again, failures = failures, []
+            for f in again:
+                spec = next(s for s in m.objects if s.name == f["name"])
+                done = _place_one(m, prep, spec, objects, taken, None, trace)
+                if isinstance(done, PlacedObject):
+                    objects.append(done)
+                else:
+                    rejections = Counter(f["rejections"]) + Counter(done["rejections"])
+                    failures.append(done | {"attempts": f["attempts"] + done["attempts"],
+                                            "rejections": dict(rejections)})
     noise = frame_noise(frame)
-    street = frame.cache.get(("street", hand_of(m.rules.traffic)))  # found when an object asked for it
+    hand = hand_of(m.rules.traffic)
+    street = frame.cache.get(("street", hand))  # found when an object asked for it
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
         source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
@@ -134,6 +158,8 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         not_placed=tuple(failures),
         placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
                                                    "sha256": saved.sha256},
-        street=None if street is None else street.to_dict(), placement_rules=rules_dict(m.rules))
+        street=None if street is None else street.to_dict() | {
+            "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)]},
+        placement_rules=rules_dict(m.rules))
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 
