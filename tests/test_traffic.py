@@ -152,12 +152,12 @@ def test_signs_at_the_kerb_facing_the_traffic_they_regulate(street):
 
 
 def test_left_hand_traffic_mirrors_the_directions():
-    marks = (StreetLine(1.6, "dashed", 5.0, 40.0, 20.0),)
-    cw = Carriageway(-1.6, 4.8, marks, 1.6, 0, "marking")
-    right = _carriageway_lanes(cw, 0, 1, {})
-    left = _carriageway_lanes(cw, 0, -1, {})
-    assert [lane.direction for lane in right] == [1, -1]
-    assert [lane.direction for lane in left] == [-1, 1]
+    """The ego vehicle's lane goes with it; the lanes across the centre line (left of it for
+    right-hand traffic, right of it for left-hand) come towards it."""
+    right_hand = Carriageway(-1.6, 4.8, (StreetLine(1.6, "dashed", 5.0, 40.0, 20.0),), 1.6, 0, "marking")
+    left_hand = Carriageway(-4.8, 1.6, (StreetLine(-1.6, "dashed", 5.0, 40.0, 20.0),), -1.6, 0, "marking")
+    assert [lane.direction for lane in _carriageway_lanes(right_hand, 0, 1, {})] == [1, -1]
+    assert [lane.direction for lane in _carriageway_lanes(left_hand, 0, -1, {})] == [-1, 1]
 
 
 def test_the_generated_street_kinds_keep_the_earlier_streets():

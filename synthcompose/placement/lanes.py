@@ -24,6 +24,7 @@ import numpy as np
 from ..geometry import Frame
 from .parked import parked_rows
 from .street import Carriageway, Street
+from .street_lines import SOLID_RUN
 
 #: narrower than this, a space between two markings is no lane (metres)
 MIN_LANE = 2.3
@@ -97,7 +98,8 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[L
         bounds = [b for b in bounds if b[1] == "kerb" or side * (kerb - b[0]) > row.depth + 0.6]
         bounds.append((edge, "bays", math.inf))
     bounds.sort()
-    bounds = [(o, kind, math.inf if cw.centre is not None and abs(o - cw.centre) < 1e-6 else c)
+    # the centre line is kept, unless it is a short stretch of paint and a long line would go
+    bounds = [(o, kind, max(c, SOLID_RUN) * 2 if cw.centre is not None and abs(o - cw.centre) < 1e-6 else c)
               for o, kind, c in bounds]
     while True:  # a marking leaving a narrow lane between two others is none (rails, double lines)
         narrow = [i for i in range(1, len(bounds) - 2) if bounds[i + 1][0] - bounds[i][0] < MIN_LANE]
@@ -136,6 +138,14 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[L
             continue
         for a, b in _split(lo, hi):
             out.append(Lane(a, b, "moving", _direction(cw, (a + b) / 2, hand), k))
+    # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
+    # centre line found says otherwise, the lanes between it and the ego lane's far edge turn
+    if cw.side == 0 and cw.centre is not None:
+        ego = min((lane for lane in out if lane.role == "moving"), key=lambda m: _gap(m, 0.0), default=None)
+        if ego is not None and ego.direction < 0:
+            edge = ego.left if hand > 0 else ego.right
+            out = [Lane(ln.right, ln.left, ln.role, 1 if hand * (edge - ln.centre) > 0 else -1, k, ln.kerb)
+                   if ln.role == "moving" else ln for ln in out]
     # a parking strip goes the way of the moving lane beside it
     moving = [lane for lane in out if lane.role == "moving"]
     done = []
@@ -146,6 +156,11 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[L
             lane = Lane(lane.right, lane.left, lane.role, direction, k, lane.kerb)
         done.append(lane)
     return done
+
+
+def _gap(lane: Lane, s: float) -> float:
+    """How far ``s`` is outside ``lane`` (0 inside), metres."""
+    return max(lane.right - s, s - lane.left, 0.0)
 
 
 def _split(lo: float, hi: float) -> list[tuple[float, float]]:
