@@ -71,7 +71,8 @@ def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
     if key not in frame.cache:
         rows = parked_rows(frame, street)
         frame.cache[key] = tuple(lane for k, cw in enumerate(street.carriageways)
-                                 for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {}))
+                                 for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {},
+                                                                street.ego_offset))
     return frame.cache[key]
 
 
@@ -83,7 +84,7 @@ def _direction(cw: Carriageway, s: float, hand: int) -> int:
     return 1 if hand * (cw.centre - s) > 0 else -1
 
 
-def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[Lane]:
+def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: float = 0.0) -> list[Lane]:
     # boundaries: (offset, kind, cover); the kerbs and the centre line are never dropped
     bounds = [(cw.right, "kerb", math.inf)] + [(m.offset, m.kind, m.cover) for m in cw.markings]
     bounds += [(cw.left, "kerb", math.inf)]
@@ -139,23 +140,16 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict) -> list[L
         for a, b in _split(lo, hi):
             out.append(Lane(a, b, "moving", _direction(cw, (a + b) / 2, hand), k))
     # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
-    # centre line found says otherwise, the lanes between it and the ego lane's far edge turn
-    if cw.side == 0 and cw.centre is not None:
-        ego = min((lane for lane in out if lane.role == "moving"), key=lambda m: _gap(m, 0.0), default=None)
-        if ego is not None and ego.direction < 0:
-            edge = ego.left if hand > 0 else ego.right
-            out = [Lane(ln.right, ln.left, ln.role, 1 if hand * (edge - ln.centre) > 0 else -1, k, ln.kerb)
-                   if ln.role == "moving" else ln for ln in out]
-    # a parking strip goes the way of the moving lane beside it
-    moving = [lane for lane in out if lane.role == "moving"]
-    done = []
-    for lane in out:
-        if lane.role != "moving":
-            near = min(moving, key=lambda m: abs(m.centre - lane.centre), default=None)
-            direction = near.direction if near is not None else _direction(cw, lane.centre, hand)
-            lane = Lane(lane.right, lane.left, lane.role, direction, k, lane.kerb)
-        done.append(lane)
-    return done
+    # centre line found says otherwise, the centre is taken at the ego lane's far edge
+    centre = cw.centre
+    if cw.side == 0 and centre is not None:
+        ego = min((lane for lane in out if lane.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
+        if ego is not None and hand * (centre - ego.centre) < 0:
+            centre = ego.left if hand > 0 else ego.right
+    # every lane (a parking strip too) goes the way of its side of the centre line
+    two_way = cw.side == 0 and centre is not None
+    return [Lane(ln.right, ln.left, ln.role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
+                 else _direction(cw, ln.centre, hand), k, ln.kerb) for ln in out]
 
 
 def _gap(lane: Lane, s: float) -> float:

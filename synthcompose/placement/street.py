@@ -37,11 +37,12 @@ from ..geometry import Frame
 from ..labels import label_id
 from .markings import find_markings
 from .road import surface_edges
-from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, S_BIN, SOLID_RUN, SPAN, StreetLine,
-                           _axis, _coverage, _drop_rails, _lines, to_road)
+from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, NEAR_STRETCH, S_BIN, SOLID_RUN, SPAN,
+                           StreetLine, _axis, _coverage, _drop_rails, _lines, to_road)
 
-#: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it)
-EGO_HALF_LANE = 0.8
+#: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it), and
+#: its place across the street is taken this far ahead (metres)
+EGO_HALF_LANE, EGO_AHEAD = 0.8, 8.0
 #: a centre line leaves at least this much room for the oncoming lane (metres); a solid line
 #: counts this much farther from the middle than a dashed one
 ONCOMING_LANE, SOLID_PENALTY = 2.5, 1.5
@@ -102,6 +103,7 @@ class Street:
     lines: tuple[StreetLine, ...]
     carriageways: tuple[Carriageway, ...]
     crossings: tuple[Crossing, ...]
+    ego_offset: float = 0.0  # the ego vehicle's place across the street, EGO_AHEAD ahead (s, metres)
 
     def heading(self, a) -> np.ndarray | float:
         """Direction of the street at ``a`` (radians in V, pointing away from the camera)."""
@@ -156,15 +158,17 @@ def _build(frame: Frame, hand: int) -> Street:
     b, q = _axis(both[both[:, 0] - frame.camera.x <= AXIS_FAR])
     kerb_lines = _lines(kerbs, b, q, MIN_KERB_COVER, "kerb")
     road = _road_profile(frame, b, q)
-    crossings = _crossings(find_markings(frame).zebra, b, q, _carriageways(kerb_lines, [], road, hand)[0])
+    crossings = _crossings(find_markings(frame).zebra, b, q,
+                           _carriageways(kerb_lines, [], road, hand, _ego_path(frame.camera, b, q))[0])
     if crossings:  # a zebra's stripes are no lane lines
         a = marks[:, 0]
         marks = marks[~np.any([(a >= c.start - 0.5) & (a <= c.end + 0.5) for c in crossings], axis=0)]
     mark_lines = _drop_rails(_lines(marks, b, q, MIN_MARK_COVER, None))
-    carriageways = _carriageways(kerb_lines, mark_lines, road, hand)
+    ego = _ego_path(frame.camera, b, q)
+    carriageways = _carriageways(kerb_lines, mark_lines, road, hand, ego)
     crossings = [Crossing(c.start, c.end, carriageways[0].right, carriageways[0].left) for c in crossings]
     return Street(b, q, tuple(sorted(kerb_lines + mark_lines, key=lambda l: l.offset)), tuple(carriageways),
-                  tuple(crossings))
+                  tuple(crossings), ego(EGO_AHEAD))
 
 
 @dataclass(frozen=True)
@@ -215,10 +219,23 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     return _RoadProfile(np.where(seen.sum(axis=1) >= 3, share, 0.0), s0, seen.sum(axis=1))
 
 
+def _ego_path(camera, b: float, q: float):
+    """The ego vehicle's offset across the street at distance ``a`` along it, driving on as it
+    heads (V's x): where the street turns, the lines near the camera are judged against it."""
+    def at(a: float) -> float:
+        return float(to_road(np.array([[a, camera.y]]), b, q)[1][0])
+    return at
+
+
+def _side_of(line: StreetLine, ego) -> float:
+    """The line's offset across the street from the ego vehicle's path, where it is first seen."""
+    return line.near_offset - ego(line.start + NEAR_STRETCH / 2)
+
+
 def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadProfile,
-                  hand: int) -> list[Carriageway]:
+                  hand: int, ego) -> list[Carriageway]:
     def nearest(side: int) -> float | None:
-        lines = [k for k in kerbs if side * k.offset > EGO_HALF_LANE]
+        lines = [k for k in kerbs if side * _side_of(k, ego) > EGO_HALF_LANE]
         near = [k for k in lines if k.start <= KERB_NEAR] or lines  # seen near, else as far as seen
         return min((k.offset for k in near), key=abs, default=None)
 
@@ -232,7 +249,7 @@ def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadP
             if unseen and other is not None:
                 edge = side * max(abs(edge), abs(other))
             left, right = (edge, right) if side > 0 else (left, edge)
-    out = [_ego(right, left, [m for m in marks if right + 0.4 < m.offset < left - 0.4], hand)]
+    out = [_ego(right, left, [m for m in marks if right + 0.4 < m.offset < left - 0.4], hand, ego)]
     # beyond a kerb: other carriageways, road between two kerb lines (a dual road's other half)
     offsets = sorted(k.offset for k in kerbs)
     for lo, hi in zip(offsets, offsets[1:]):
@@ -245,21 +262,21 @@ def _carriageways(kerbs: list[StreetLine], marks: list[StreetLine], road: _RoadP
     return out
 
 
-def _ego(right: float, left: float, marks: list[StreetLine], hand: int) -> Carriageway:
+def _ego(right: float, left: float, marks: list[StreetLine], hand: int, ego) -> Carriageway:
     """The ego carriageway: its centre line (on the oncoming traffic's side of the ego
     vehicle: left for right-hand traffic, ``hand`` = +1), or one-way with the ego vehicle."""
     middle = (left + right) / 2
     # a centre line has the ego vehicle's lane on one side and a whole lane of oncoming traffic
     # on the other (a line closer to the kerb bounds a parking strip or a cycle lane)
     kerb = left if hand > 0 else right
-    beyond = [m for m in marks if hand * m.offset > EGO_HALF_LANE and abs(kerb - m.offset) >= ONCOMING_LANE]
+    beyond = [m for m in marks if hand * _side_of(m, ego) > EGO_HALF_LANE and abs(kerb - m.offset) >= ONCOMING_LANE]
     beyond = [m for m in beyond if m.cover >= SOLID_RUN] or beyond  # seen over a stretch: not a stripe
     if beyond:
         # nearest to the middle; a dashed line before a solid one (a centre line is mostly
         # dashed, the line in front of parking bays or along a cycle lane solid)
         centre = min(beyond, key=lambda m: abs(m.offset - middle) + (SOLID_PENALTY if m.kind == "solid" else 0.0))
         return Carriageway(right, left, tuple(marks), centre.offset, 0, "marking")
-    if hand * middle >= TWO_WAY_OFFSET and left - right >= TWO_WAY_WIDTH:
+    if hand * (middle - ego(EGO_AHEAD)) >= TWO_WAY_OFFSET and left - right >= TWO_WAY_WIDTH:
         return Carriageway(right, left, tuple(marks), middle, 0, "middle")
     return Carriageway(right, left, tuple(marks), None, 0, "one-way")
 

@@ -25,6 +25,8 @@ S_BIN, A_BIN = 0.1, 1.0
 MIN_KERB_COVER, MIN_MARK_COVER = 4.0, 3.0
 #: a marking seen over this run of metres without a break is solid
 SOLID_RUN = 6.0
+#: a line's offset near the camera is measured over its nearest this many metres (metres)
+NEAR_STRETCH = 6.0
 #: tram rails: two thin lines this far apart (metres)
 RAIL_GAUGE = (1.3, 1.65)
 #: at most this many points go into the axis search, all within this many metres ahead (the
@@ -45,6 +47,11 @@ class StreetLine:
     start: float
     end: float
     cover: float
+    near: float | None = None  # its offset over its nearest NEAR_STRETCH metres (a curving street)
+
+    @property
+    def near_offset(self) -> float:
+        return self.offset if self.near is None else self.near
 
     def to_dict(self) -> dict:
         return {"offset_m": round(self.offset, 3), "kind": self.kind, "from_m": round(self.start, 1),
@@ -147,8 +154,11 @@ def _lines(points: np.ndarray, b: float, q: float, min_cover: float, kind: str |
         offset = float(np.median(s[near])) if near.any() else centre
         cols = np.flatnonzero(occ[i])
         run = _longest_run(cols)
+        start = float(cols.min() * A_BIN)
+        first = near & (a <= start + NEAR_STRETCH)
         out.append(StreetLine(offset, kind or ("solid" if run * A_BIN >= SOLID_RUN else "dashed"),
-                              float(cols.min() * A_BIN), float((cols.max() + 1) * A_BIN), float(cover[i])))
+                              start, float((cols.max() + 1) * A_BIN), float(cover[i]),
+                              float(np.median(s[first])) if first.sum() >= 3 else None))
     return out
 
 
