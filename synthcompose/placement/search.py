@@ -172,8 +172,11 @@ def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, noise
 
 def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
                  rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
-                 others: Sequence[Placement] = (), trace: list | None = None) -> PlacementResult:
+                 others: Sequence[Placement] = (), trace: list | None = None,
+                 pose_hint: str | None = None) -> PlacementResult:
     """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not.
+    ``pose_hint``: a person's pose, decided (and its model posed) before the placement
+    (``walking`` / ``standing``): the person is placed as that pose stands in traffic.
 
     ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
     candidate (the preview shows them); the result does not depend on it."""
@@ -214,7 +217,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
             yaw = math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter))
         else:
             if orientation == "pedestrian":
-                spot = person_spot(frame, street, point, rng, hand)
+                spot = person_spot(frame, street, point, rng, hand, pose_hint)
             elif orientation == "facing-traffic":
                 spot = sign_spot(frame, street, point, extents, rng, jitter, hand)
             else:

@@ -261,16 +261,18 @@ def footway_kerb(frame: Frame, street: Street, point: np.ndarray, hand: int):
 
 
 def person_spot(frame: Frame, street: Street, point: np.ndarray, rng: np.random.Generator,
-                hand: int) -> tuple[np.ndarray, float, Traffic] | Rejection:
+                hand: int, hint: str | None = None) -> tuple[np.ndarray, float, Traffic] | Rejection:
     """A person on a footway: walking along it, or standing (waiting at the kerb facing the
-    road, or by a door or a parked car facing the street)."""
+    road, or by a door or a parked car facing the street). ``hint``: the pose the person's
+    model was given before the placement (``walking`` / ``standing``, the cast's posing); None
+    decides here by the place (near the kerb mostly waiting)."""
     kerb = footway_kerb(frame, street, point, hand)
     a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
     if kerb is None:
         return Rejection("no footway direction", "no kerb near the footway")
     dist, towards, heading, _, where, side = kerb
     face_road = math.atan2(towards[1], towards[0])
-    standing = rng.random() < (0.6 if dist <= KERB_WAIT else 0.2)
+    standing = rng.random() < (0.6 if dist <= KERB_WAIT else 0.2) if hint is None else hint == "standing"
     if standing:
         yaw = face_road + float(rng.uniform(-1, 1)) * math.radians(15 if dist <= KERB_WAIT else 35)
         direction, hint = None, "standing"

@@ -4,24 +4,27 @@ and the record's first part)."""
 from __future__ import annotations
 
 import logging
+import zlib
 from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
 from .. import __version__
+from ..cast import CastDraw, cast_model, cast_rng, draw_entry
 from ..dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record
 from ..manifest import Manifest, ObjectSpec
-from ..models import Model, load_model
+from ..models import Model, load_model, posable, pose_rng, posed_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
-from ..placement.rules import rules_dict
+from ..models.poses import KINDS, WALKING_SHARE
+from ..placement.rules import orientation_for, rules_dict
 from ..placement.lanes import lanes
 from ..placement.traffic import hand_of
-from ..placements import SavedPlacement, saved_result
+from ..placements import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
 from .timing import timed
@@ -38,7 +41,8 @@ def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) ->
     existing += [i % INSTANCE_FACTOR for i in taken if i // INSTANCE_FACTOR == class_id]
     k = max(existing, default=-1) + 1
     if k >= INSTANCE_FACTOR:
-        raise SynthComposeError(f"no free instance id left for class {class_id}")
+        raise SynthComposeError(f"holds instance {class_id * INSTANCE_FACTOR + k - 1} of class {class_id} already: "
+                                f"no instance id is left for another (ids end at {class_id * INSTANCE_FACTOR + 999})")
     return class_id * INSTANCE_FACTOR + k
 
 
@@ -51,6 +55,8 @@ class PlacedObject:
     result: PlacementResult  # the pose and the candidates' rejections
     instance_id: int
     check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+    cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
+    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -78,6 +84,40 @@ def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
+def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int,
+                 pose: str | None = None) -> tuple[Model, CastDraw | None, dict | None]:
+    """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
+    drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
+    posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
+    builtin as it is. ``pose``: a person's pose kind (``walking`` / ``standing``; None: any)."""
+    if spec.cast:
+        rng = cast_rng(m.seed, key, index)
+        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng, pose)
+        return model, drawn, None
+    if spec.class_name in ("person", "rider") and posable(spec.model):
+        model, posed = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index), pose)
+        return model, None, posed
+    return load_model(spec.model, spec.size, spec.up, spec.forward), None, None
+
+
+def pose_kind(m: Manifest, spec: ObjectSpec, key: str, index: int) -> str | None:
+    """A person who follows the footway (orientation ``pedestrian``): ``walking`` or
+    ``standing``, decided before the placement (its own draw of (seed, image set, index)) so
+    that the model is posed so and the placement's checks use the posed model's extents; the
+    placement then puts the pose where it fits (walking along the footway, standing facing the
+    road). None for other objects."""
+    if spec.class_name != "person" or orientation_for(spec.class_name, spec.orientation) != "pedestrian":
+        return None
+    rng = np.random.default_rng([int(m.seed), zlib.crc32(key.encode()), int(index), 0x6B696E64])
+    return "walking" if rng.random() < WALKING_SHARE else "standing"
+
+
+def _posed_as(drawn: CastDraw | None, pose: dict | None) -> str | None:
+    """The pose kind a model was given (``walking`` / ``standing``), None when not posed."""
+    kind = (pose or (drawn.appearance.get("pose") if drawn is not None else None) or {}).get("pose")
+    return kind if kind in KINDS else None
+
+
 def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     """With an input polygons file, the ids its entries number (cityscapesScripts counts them):
     an inserted instance appended after them gets the next."""
@@ -88,14 +128,19 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
 
 
 def _place_one(m: Manifest, prep: Prepared, spec: ObjectSpec, objects: list, taken: set[int],
-               saved_object=None, trace: list | None = None) -> "PlacedObject | dict":
+               saved_object=None, trace: list | None = None,
+               saved_from: SavedPlacement | None = None) -> "PlacedObject | dict":
     """One object placed among ``objects`` (placed before it): its PlacedObject, or the
     failure's record (name, class, reason, attempts, rejections)."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
-    model = load_model(spec.model, spec.size, spec.up, spec.forward)
+    kind = pose_kind(m, spec, ident.key, len(objects)) if saved_object is None else None
+    model, drawn, pose = object_model(m, spec, ident.key, len(objects), kind)
+    if saved_object is not None and (problem := pose_problem(frame, model.extents, saved_object.matrix)):
+        raise InputError(saved_from.path, f"saved placement object {saved_from.objects.index(saved_object)} "
+                                          f"({spec.name!r}) {problem}")
     others = [o.placement for o in objects]
     result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
-                          spec.orientation, others, trace=trace) \
+                          spec.orientation, others, trace=trace, pose_hint=_posed_as(drawn, pose)) \
         if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
     if result.placement is None:
         return {"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
@@ -109,9 +154,12 @@ def _place_one(m: Manifest, prep: Prepared, spec: ObjectSpec, objects: list, tak
         if why is not None:
             check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
             log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
-    inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+    try:
+        inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+    except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
+        raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
     taken.add(inst)
-    return PlacedObject(spec, model, result, inst, check)
+    return PlacedObject(spec, model, result, inst, check, drawn, pose)
 
 
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
@@ -128,7 +176,7 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            done = _place_one(m, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace)
+            done = _place_one(m, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
             (objects if isinstance(done, PlacedObject) else failures).append(done)
         if saved is None and not objects and failures:
             # a frame that got none of its objects tries each of them once more (twice the
