@@ -22,9 +22,10 @@ DEMO = Path(__file__).resolve().parents[1] / "assets" / "demo" / "manifest.json"
 
 
 def demo_manifest(path: Path, dataset: Path, output: Path, objects: int = 3, **extra) -> Path:
-    """The bundled demo's cast (car, truck, person, stop sign) on ``dataset``."""
+    """The bundled demo's cast (the street cast: cars, a bus, a lorry, posed people, signs) on
+    ``dataset``."""
     m = json.loads(DEMO.read_text())
-    for obj in m["objects"]:
+    for obj in m.get("objects", []):
         if not obj["model"].startswith("builtin:"):
             obj["model"] = str((DEMO.parent / obj["model"]).resolve())
     splits = sorted({i.split for i in find_image_sets(dataset)})
@@ -47,7 +48,9 @@ def _no_disagreement(out: Path) -> int:
                 assert obj.traffic is not None and obj.traffic["role"] in (
                     "moving", "parked", "walking", "standing", "sign")
                 if obj.class_name == "person":
+                    # the person was posed as it was placed (the pose decided first)
                     assert obj.traffic["pose_hint"] in ("walking", "standing")
+                    assert obj.appearance["pose"]["pose"] == obj.traffic["pose_hint"] == obj.traffic["role"]
     return len(checks)
 
 

@@ -221,9 +221,12 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
 
 def _ego_path(camera, b: float, q: float):
     """The ego vehicle's offset across the street at distance ``a`` along it, driving on as it
-    heads (V's x): where the street turns, the lines near the camera are judged against it."""
+    heads (V's x) up to ``EGO_AHEAD`` and no farther: where the street turns, the lines near
+    the camera are judged against it; a line first seen far is judged against the ego
+    vehicle's place ``EGO_AHEAD`` ahead (a camera turned off the street's direction, at a
+    bend or turning, would otherwise drive off its street on paper)."""
     def at(a: float) -> float:
-        return float(to_road(np.array([[a, camera.y]]), b, q)[1][0])
+        return float(to_road(np.array([[min(a, EGO_AHEAD), camera.y]]), b, q)[1][0])
     return at
 
 
