@@ -32,10 +32,11 @@ from synthcompose.manifest import load_manifest  # noqa: E402
 
 
 def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path) -> Path:
-    """The bundled demo manifest's objects (model paths made absolute), on ``root``."""
+    """The bundled demo manifest's objects (its street cast; model paths made absolute), on
+    ``root``."""
     demo = REPO / "assets" / "demo" / "manifest.json"
     m = json.loads(demo.read_text())
-    for obj in m["objects"]:
+    for obj in m.get("objects", []):
         if not obj["model"].startswith("builtin:"):
             obj["model"] = str((demo.parent / obj["model"]).resolve())
     splits = sorted({i.split for i in find_image_sets(root)})
