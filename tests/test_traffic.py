@@ -172,3 +172,23 @@ def test_the_generated_street_kinds_keep_the_earlier_streets():
     assert not random_scene(np.random.default_rng([21, 0]), W, H, street="one-way").centre_line
     with pytest.raises(ValueError):
         random_scene(np.random.default_rng([21, 0]), W, H, street="roundabout")
+
+
+def test_a_person_over_a_side_streets_carriageway_is_rejected():
+    """A side street's far kerb seen at 37 m: its pixels under a person's feet are sidewalk, but
+    the stereo puts them 3 m short, over the side street's carriageway. The person may not stand
+    there (the check and so the placement reject it); the same person on the footway passes."""
+    from synthcompose.placement.boxes import pose_matrix
+    from synthcompose.placement.verdict import on_carriageway
+
+    scene = random_scene(np.random.default_rng([11, 1]), W, H)
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera)
+    over = np.array([36.59, 5.88])
+    assert str(scene.surface_label(*over)) == "road" and scene.in_crossing(*over)
+    up = np.array([0.0, 0.0, 1.0])
+    why = on_carriageway(frame, pose_matrix(np.array([*over, 0.167]), up, -3.1), SIZES["person"])
+    assert why is not None and why.reason == "person on the carriageway"
+    on_footway = np.array([20.49, 6.91])
+    assert str(scene.surface_label(*on_footway)) == "sidewalk"
+    assert on_carriageway(frame, pose_matrix(np.array([*on_footway, 0.148]), up, -3.07), SIZES["person"]) is None

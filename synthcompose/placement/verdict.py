@@ -10,7 +10,10 @@ again on the frame's street (``street.py``, ``lanes.py``):
   lane's direction; a parked one inside its strip, along (or at the row's angle to) the kerb,
   nose the way of the traffic beside it; on a side street, the same for the side street's lane;
 * a person on the footway (never on the carriageway: the allowed surface), walking along it or
-  standing facing the road when so claimed;
+  standing facing the road when so claimed; not where the road's points outnumber the
+  footway's on the ground plan around its footprint (``on_carriageway``: a side street's
+  carriageway seen in front of its far kerb, which the stereo's depth noise puts at the
+  footprint's place while the pixels under the feet are that kerb's);
 * a sign at the kerb's edge (from ``traffic.sign_distance`` to ``SIGN_EDGE`` beyond, give or
   take ``SIGN_BAND``), facing the
   traffic of the lane beside it.
@@ -21,9 +24,10 @@ import math
 
 import numpy as np
 
-from ..geometry import Frame
+from ..geometry import Frame, back_project
+from ..labels import label_id
 from .lanes import lane_at, lanes
-from .rules import Rejection
+from .rules import GROUND_LEVEL, Rejection, label_mask
 from .traffic import (LANE_MARGIN, SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, parking_fit,
                       sign_distance, street_of)
 
@@ -37,6 +41,9 @@ FACING_LIMIT = 45.0
 SIGN_BAND = 0.3
 #: a footprint may reach this far over its lane's markings (the markings' own width, metres)
 MARKING_SLACK = 0.05
+#: a person's footprint grown by this (metres) is where the ground plan's points tell
+#: carriageway from footway; at least CARRIAGEWAY_MIN points are needed to say so
+CARRIAGEWAY_REACH, CARRIAGEWAY_MIN = 0.3, 12
 
 
 def _angle(a: float, b: float) -> float:
@@ -68,6 +75,9 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
         if _angle(yaw, want) > YAW_LIMIT:
             return Rejection("sign not facing its traffic", f"{_angle(yaw, want):.0f} deg off")
         return None
+    why = on_carriageway(frame, m, extents)
+    if why:
+        return why
     if claim.pose_hint == "walking":
         off = min(_angle(yaw, heading), _angle(yaw, heading + math.pi))
         if off > YAW_LIMIT:
@@ -76,6 +86,40 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
         off = _angle(yaw, math.atan2(towards[1], towards[0]))
         if off > FACING_LIMIT:
             return Rejection("not facing the road", f"{off:.0f} deg off")
+    return None
+
+
+def _ground_plan(frame: Frame, stride: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """The frame's ground-level points on the ground plan (every ``stride``-th pixel, V) and
+    whether each is road; cached on the frame."""
+    key = ("ground_plan", stride)
+    if key not in frame.cache:
+        lab = frame.label_ids[::stride, ::stride]
+        v, u = np.nonzero(label_mask([label_id(n) for n in GROUND_LEVEL])[lab]
+                          & np.isfinite(frame.depth[::stride, ::stride]))
+        _, pts = back_project(frame.depth, frame.camera, v * stride, u * stride)
+        frame.cache[key] = (pts[:, :2].astype(np.float64), lab[v, u] == label_id("road"))
+    return frame.cache[key]
+
+
+def on_carriageway(frame: Frame, m: np.ndarray, extents) -> Rejection | None:
+    """A person's place is carriageway when, on the ground plan around its footprint (grown by
+    CARRIAGEWAY_REACH), the road's points outnumber the other ground's: the pixels under its
+    feet may be a footway's (a far kerb seen across a side street) while the stereo depth
+    puts them on that side street's carriageway."""
+    xy, road = _ground_plan(frame)
+    c = m[:3, 3]
+    reach = math.hypot(extents[0], extents[1]) / 2 + CARRIAGEWAY_REACH
+    near = (np.abs(xy[:, 0] - c[0]) <= reach) & (np.abs(xy[:, 1] - c[1]) <= reach)
+    if near.sum() < CARRIAGEWAY_MIN:
+        return None
+    local = (xy[near] - c[:2]) @ m[:2, :2]
+    inside = (np.abs(local[:, 0]) <= extents[0] / 2 + CARRIAGEWAY_REACH) & \
+        (np.abs(local[:, 1]) <= extents[1] / 2 + CARRIAGEWAY_REACH)
+    n = int(inside.sum())
+    share = float(road[near][inside].mean()) if n else 0.0
+    if n >= CARRIAGEWAY_MIN and share > 0.5:
+        return Rejection("person on the carriageway", f"{share:.0%} of {n} ground points around it are road")
     return None
 
 
