@@ -188,7 +188,7 @@ def test_a_person_over_a_side_streets_carriageway_is_rejected():
     assert str(scene.surface_label(*over)) == "road" and scene.in_crossing(*over)
     up = np.array([0.0, 0.0, 1.0])
     why = on_carriageway(frame, pose_matrix(np.array([*over, 0.167]), up, -3.1), SIZES["person"])
-    assert why is not None and why.reason == "person on the carriageway"
+    assert why is not None and why.reason == "on the carriageway"
     on_footway = np.array([20.49, 6.91])
     assert str(scene.surface_label(*on_footway)) == "sidewalk"
     assert on_carriageway(frame, pose_matrix(np.array([*on_footway, 0.148]), up, -3.07), SIZES["person"]) is None

@@ -30,8 +30,10 @@ from .street import Carriageway, Street, find_street
 
 #: a parked car's side stands this far from the kerb (metres)
 PARK_GAP = 0.25
-#: a moving vehicle keeps this far from its lane's markings (metres)
-LANE_MARGIN = 0.15
+#: a moving vehicle keeps this far from its lane's markings (metres); one wider than WIDE_BODY
+#: (a lorry's or a bus's extents hold its mirrors, which reach over the markings of a town's
+#: 3 m lanes) only WIDE_MARGIN
+LANE_MARGIN, WIDE_BODY, WIDE_MARGIN = 0.15, 2.55, 0.05
 #: a person this close to the kerb may be waiting there (metres)
 KERB_WAIT = 1.2
 #: a sign's plate (its footprint across the footway) ends this far from the kerb (metres): the
@@ -104,6 +106,11 @@ def sign_distance(extents) -> float:
     return float(extents[1]) / 2 + SIGN_KERB
 
 
+def lane_room(width: float) -> float:
+    """The lane width a moving vehicle ``width`` metres wide needs (metres)."""
+    return width + 2 * (LANE_MARGIN if width <= WIDE_BODY else WIDE_MARGIN)
+
+
 def hand_of(traffic: str) -> int:
     """+1 for right-hand traffic, -1 for left-hand."""
     return -1 if traffic == "left-hand" else 1
@@ -136,7 +143,7 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
     heading = float(street.heading(a))
     layout = None
     if lane.role == "moving":
-        if lane.width < w + 2 * LANE_MARGIN:
+        if lane.width < lane_room(w):
             return Rejection("lane narrower than the vehicle", f"{lane.width:.2f} m for {w:.2f} m")
         target = lane.centre + float(rng.uniform(-0.1, 0.1)) * min(1.0, (lane.width - w) / 1.0)
         yaw = heading + (0.0 if lane.direction > 0 else math.pi) + float(rng.uniform(-jitter, jitter))
@@ -192,7 +199,7 @@ def _side_street_spot(frame: Frame, street: Street, point: np.ndarray, extents, 
     if abs(float(ahead[1][0])) < abs(float(ps[0])):
         d = -d
     width, offset = _arm_width(frame, d, point)
-    if width is None or width < 2 * (w + 2 * LANE_MARGIN) or width > 16.0:
+    if width is None or width < 2 * lane_room(w) or width > 16.0:
         return Rejection("no clear road direction (junction)", "the side street's kerbs are not both seen")
     normal = np.array([-d[1], d[0]])  # left of d
     # ``offset``: the point's position across the side street from its middle (left of d
@@ -316,7 +323,7 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
         keep = np.zeros(len(s), bool)
         w = extents[1]
         for lane in lanes(frame, street, hand):
-            ok = (lane.role == "moving" and orientation != "parked" and lane.width >= w + 2 * LANE_MARGIN) or \
+            ok = (lane.role == "moving" and orientation != "parked" and lane.width >= lane_room(w)) or \
                  (lane.role == "parking" and orientation != "moving"
                   and lane.width >= parking_fit(frame, street, lane, extents)[2] + PARK_GAP - 0.1)
             if ok:

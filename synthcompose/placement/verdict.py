@@ -10,10 +10,10 @@ again on the frame's street (``street.py``, ``lanes.py``):
   lane's direction; a parked one inside its strip, along (or at the row's angle to) the kerb,
   nose the way of the traffic beside it; on a side street, the same for the side street's lane;
 * a person on the footway (never on the carriageway: the allowed surface), walking along it or
-  standing facing the road when so claimed; not where the road's points outnumber the
-  footway's on the ground plan around its footprint (``on_carriageway``: a side street's
-  carriageway seen in front of its far kerb, which the stereo's depth noise puts at the
-  footprint's place while the pixels under the feet are that kerb's);
+  standing facing the road when so claimed; neither a person nor a sign where the road's
+  points outnumber the footway's on the ground plan around its footprint
+  (``on_carriageway``: a side street's carriageway seen in front of its far kerb, which the
+  stereo's depth noise puts at the footprint's place while the pixels under it are the kerb's);
 * a sign at the kerb's edge (from ``traffic.sign_distance`` to ``SIGN_EDGE`` beyond, give or
   take ``SIGN_BAND``), facing the
   traffic of the lane beside it.
@@ -28,7 +28,7 @@ from ..geometry import Frame, back_project
 from ..labels import label_id
 from .lanes import lane_at, lanes
 from .rules import GROUND_LEVEL, Rejection, label_mask
-from .traffic import (LANE_MARGIN, SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, parking_fit,
+from .traffic import (SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, lane_room, parking_fit,
                       sign_distance, street_of)
 
 #: a moving vehicle's centre is this close to its lane's centre (metres)
@@ -41,7 +41,7 @@ FACING_LIMIT = 45.0
 SIGN_BAND = 0.3
 #: a footprint may reach this far over its lane's markings (the markings' own width, metres)
 MARKING_SLACK = 0.05
-#: a person's footprint grown by this (metres) is where the ground plan's points tell
+#: a person's or a sign's footprint grown by this (metres) is where the ground plan's points tell
 #: carriageway from footway; at least CARRIAGEWAY_MIN points are needed to say so
 CARRIAGEWAY_REACH, CARRIAGEWAY_MIN = 0.3, 12
 
@@ -67,6 +67,9 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
     if kerb is None:
         return Rejection("no footway direction", "no kerb near")
     dist, towards, heading, direction, _, _ = kerb
+    why = on_carriageway(frame, m, extents)
+    if why:
+        return why
     if claim.role == "sign":
         near = sign_distance(extents)
         if not near - SIGN_BAND <= dist <= near + SIGN_EDGE + SIGN_BAND:
@@ -75,9 +78,6 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
         if _angle(yaw, want) > YAW_LIMIT:
             return Rejection("sign not facing its traffic", f"{_angle(yaw, want):.0f} deg off")
         return None
-    why = on_carriageway(frame, m, extents)
-    if why:
-        return why
     if claim.pose_hint == "walking":
         off = min(_angle(yaw, heading), _angle(yaw, heading + math.pi))
         if off > YAW_LIMIT:
@@ -103,7 +103,7 @@ def _ground_plan(frame: Frame, stride: int = 2) -> tuple[np.ndarray, np.ndarray]
 
 
 def on_carriageway(frame: Frame, m: np.ndarray, extents) -> Rejection | None:
-    """A person's place is carriageway when, on the ground plan around its footprint (grown by
+    """A person's or a sign's place is carriageway when, on the ground plan around its footprint (grown by
     CARRIAGEWAY_REACH), the road's points outnumber the other ground's: the pixels under its
     feet may be a footway's (a far kerb seen across a side street) while the stereo depth
     puts them on that side street's carriageway."""
@@ -119,7 +119,7 @@ def on_carriageway(frame: Frame, m: np.ndarray, extents) -> Rejection | None:
     n = int(inside.sum())
     share = float(road[near][inside].mean()) if n else 0.0
     if n >= CARRIAGEWAY_MIN and share > 0.5:
-        return Rejection("person on the carriageway", f"{share:.0%} of {n} ground points around it are road")
+        return Rejection("on the carriageway", f"{share:.0%} of {n} ground points around it are road")
     return None
 
 
@@ -162,7 +162,7 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
                                                    f"its lane {lane.right:.2f}..{lane.left:.2f} m")
     if role == "moving" and abs(s - lane.centre) > LANE_CENTRED:
         return Rejection("not centred in its lane", f"{abs(s - lane.centre):.2f} m from its centre")
-    if role == "moving" and lane.width < w + 2 * LANE_MARGIN - 1e-6:
+    if role == "moving" and lane.width < lane_room(w) - 1e-6:
         return Rejection("lane narrower than the vehicle", f"{lane.width:.2f} m for {w:.2f} m")
     return None
 
