@@ -34,7 +34,7 @@ from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import BatchError, _in_process, _process_pool, _ray_engine, worker_count
+from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .pipeline import STAGES, Outcome
 from .record import DONE, NO_PLACEMENT, read_record
 from .selection import select_image_sets
@@ -275,11 +275,11 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
         log.info("%d image sets from %s -> %s: %d to do, %d already complete", len(ids), manifest.dataset,
                  manifest.output, len(todo), len(ids) - len(todo))
         if use_ray:
-            stream: Iterable[Outcome] = _ray_engine(manifest, weights, todo, workers, ray_address, gpus_per_actor)
+            stream: Iterable[Outcome] = ray_engine(manifest, weights, todo, workers, ray_address, gpus_per_actor)
         elif workers <= 1:
-            stream = _in_process(manifest, weights, todo, 0 if gpus else None)
+            stream = in_process(manifest, weights, todo, 0 if gpus else None)
         else:
-            stream = _process_pool(manifest, weights, todo, workers, gpus)
+            stream = process_pool(manifest, weights, todo, workers, gpus)
         show_bar = sys.stderr.isatty() if progress is None else progress
         bar = tqdm(total=len(todo), unit="set", disable=not show_bar, dynamic_ncols=True)
         # log lines go above the bar, not onto it

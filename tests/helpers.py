@@ -55,3 +55,25 @@ def assert_resume_matches(ids, manifest: Path, out: Path, ref: Path) -> None:
     for ident in ids:
         for kind in OUT_KINDS:
             assert ident.path(out, kind).read_bytes() == ident.path(ref, kind).read_bytes(), (ident, kind)
+
+
+def crashing_worker(crash_key: str, *args) -> None:
+    """A worker process (``engines.worker_entry``) that dies like a driver crash (SIGSEGV)
+    once it has begun the image set ``crash_key``; module-level, so a spawned worker imports it."""
+    import os
+    import signal
+
+    from synthcompose import engines, pipeline
+
+    stream = pipeline.Pipeline.stream
+
+    def crashing_stream(self, items, on_begin=None):
+        def begin(ident):
+            if on_begin is not None:
+                on_begin(ident)
+            if ident.key == crash_key:
+                os.kill(os.getpid(), signal.SIGSEGV)
+        return stream(self, items, on_begin=begin)
+
+    pipeline.Pipeline.stream = crashing_stream
+    engines.run_worker(*args)

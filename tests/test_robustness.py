@@ -3,6 +3,7 @@ clear error naming the file and the problem, and the rest of the batch completes
 from __future__ import annotations
 
 import errno
+import functools
 import json
 import os
 import random
@@ -20,14 +21,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import synthcompose.fileio as fileio
-from synthcompose.engines import FAULT_CRASH_ENV
+from synthcompose import engines
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
 from synthcompose.synthetic import make_sample
 
-from .helpers import assert_resume_matches, with_reference_run
+from .helpers import assert_resume_matches, crashing_worker, with_reference_run
 from .test_batch import ASSETS, OUT_KINDS, write_manifest
 from .tolerances import RSS_GROWTH_MB
 
@@ -247,7 +248,7 @@ def test_disk_full_midway_loses_nothing(tmp_path, monkeypatch):
 def test_a_worker_that_dies_is_reported_and_replaced(tmp_path, monkeypatch):
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=7)
-    monkeypatch.setenv(FAULT_CRASH_ENV, ids[1].key)
+    monkeypatch.setattr(engines, "worker_entry", functools.partial(crashing_worker, ids[1].key))
     out = tmp_path / "out"
     assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--workers", "2",
                  "--no-progress"]) == 1

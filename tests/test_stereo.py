@@ -1,7 +1,7 @@
 """Generated disparity measures like real Cityscapes SGM output.
 
 The ranges are those measured on four real development frames (2048x1024) with
-``benchmarks/stereo_stats.py`` (README, "Generated stereo"), widened by a few points; the
+``benchmarks/stereo_stats.py`` (docs/stereo.md, "Generated stereo and photo"), widened by a few points; the
 scenes here are 1024x512, a real frame scaled down: their noise is scaled with the width, and
 ``stereo_stats`` measures them with windows and steps scaled and gives pixel figures in pixels
 of a 2048 px frame, so the ranges apply as they are.
