@@ -6,7 +6,8 @@ boundary (tram rails, a double line) and is dropped, the weakest first. A strip 
 kerb and a marking 1.9-2.9 m wide is a parking strip (narrower: a cycle lane, no car); an
 unmarked lane along a kerb with room for a parked row (``WIDE``) has one where the frame's own
 cars are parked along that kerb (``parked.py``); a moving lane wider than ``LANE_WIDTH`` is
-split into lanes (the ego vehicle's centred on it).
+split into lanes (the ego vehicle's centred on it); a moving lane that holds the centre line (its
+marking dropped as a short stretch of paint) is split there, one lane each way.
 
 Directions (right-hand traffic, ``hand`` = +1; left-hand mirrors it): on a two-way
 carriageway the lanes right of the centre line go with the ego vehicle (+1, along the street
@@ -36,6 +37,8 @@ WIDE, ROW_WIDTH = 4.3, 2.2
 #: a moving lane is at most this wide; wider, it is split into lanes at least LANE_MIN_SPLIT
 #: wide (metres)
 LANE_WIDTH, LANE_MIN_SPLIT = 3.75, 2.75
+#: a centre line this far inside a moving lane splits it (metres)
+CENTRE_INSIDE = 0.5
 
 
 @dataclass(frozen=True)
@@ -139,9 +142,13 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
             continue
         for a, b in _split(lo, hi):
             out.append(Lane(a, b, "moving", _direction(cw, (a + b) / 2, hand), k))
+    # a moving lane holding the centre line (its marking dropped as a short stretch of paint)
+    # is two lanes, one each way: split there
+    centre = cw.centre
+    if cw.side == 0 and centre is not None:
+        out = [part for ln in out for part in _split_at(ln, centre)]
     # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
     # centre line found says otherwise, the centre is taken at the ego lane's far edge
-    centre = cw.centre
     if cw.side == 0 and centre is not None:
         ego = min((lane for lane in out if lane.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
         if ego is not None and hand * (centre - ego.centre) < 0:
@@ -150,6 +157,14 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     two_way = cw.side == 0 and centre is not None
     return [Lane(ln.right, ln.left, ln.role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
                  else _direction(cw, ln.centre, hand), k, ln.kerb) for ln in out]
+
+
+def _split_at(lane: Lane, s: float) -> list[Lane]:
+    """A moving ``lane`` split at ``s`` when ``s`` lies more than CENTRE_INSIDE inside it."""
+    if lane.role != "moving" or not lane.right + CENTRE_INSIDE < s < lane.left - CENTRE_INSIDE:
+        return [lane]
+    return [Lane(lane.right, s, "moving", lane.direction, lane.carriageway),
+            Lane(s, lane.left, "moving", lane.direction, lane.carriageway)]
 
 
 def _gap(lane: Lane, s: float) -> float:
