@@ -15,8 +15,9 @@ centre lines and markings placement found):
   vehicle facing the other way is counted "against its lane". Also the issue's plain measure:
   vehicles within 1.6 m of the camera's line (V's y), ahead of it, facing the camera;
 * **markings**: a moving vehicle whose footprint spans a recorded lane marking (a boundary of
-  the recorded lanes, seen at its distance along the street) is "across a lane marking"; a line
-  the lanes left out (tram rails, a short stretch of paint) under it is counted apart;
+  the recorded lanes, or any line seen over 6 m there and not under the ego vehicle's own path,
+  at its distance along the street) is "across a lane marking"; a shorter line, or one under
+  the ego vehicle's path, is counted apart;
 * **people** whose footprint centre lies on a carriageway (between its kerbs) and not on a
   recorded crossing; **overlaps**: two objects' footprints intersecting, people closer than 0.5 m;
 * **disagreement**: objects that check-placement --strict (``synthcompose.check``) fails.
@@ -41,7 +42,9 @@ sys.path.insert(0, str(REPO))
 
 from synthcompose.check import check_output  # noqa: E402
 from synthcompose.placement.boxes import footprint_corners, footprints_overlap  # noqa: E402
+from synthcompose.placement.street import EGO_HALF_LANE  # noqa: E402
 from synthcompose.placement.street_lines import to_road  # noqa: E402
+from synthcompose.placement.verdict import LINE_SEEN  # noqa: E402
 from synthcompose.record import read_record  # noqa: E402
 
 VEHICLES = ("car", "truck", "bus", "motorcycle", "caravan", "trailer")
@@ -116,8 +119,15 @@ def analyse(out: Path) -> dict:
                                 counts["across a lane marking"] += 1
                                 findings.append((rec.image_set, obj.index, obj.name,
                                                  f"across the lane marking at {mk['offset_m']:.2f} m"))
+                            elif mk["to_m"] - mk["from_m"] >= LINE_SEEN and \
+                                    abs(mk["offset_m"] - street.get("ego_offset_m", 0.0)) > EGO_HALF_LANE:
+                                # a line seen along the street that the lanes left out: a lane
+                                # line still (verdict._over_a_line)
+                                counts["across a lane marking"] += 1
+                                findings.append((rec.image_set, obj.index, obj.name,
+                                                 f"across a line the lanes left out at {mk['offset_m']:.2f} m"))
                             else:
-                                counts["over a line that bounds no lane"] += 1
+                                counts["over a short line or one under the ego vehicle's path"] += 1
             elif obj.class_name == "person":
                 counts["people"] += 1
                 on_road = any(cw["right_m"] <= s <= cw["left_m"] for cw in street["carriageways"])

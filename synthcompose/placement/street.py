@@ -130,7 +130,7 @@ class Street:
         return next((c for c in self.crossings if c.contains(a, s)), None)
 
     def to_dict(self) -> dict:
-        return {"axis": {"b": round(self.b, 5), "q": round(self.q, 6)},
+        return {"axis": {"b": round(self.b, 5), "q": round(self.q, 6)}, "ego_offset_m": round(self.ego_offset, 3),
                 "carriageways": [c.to_dict() for c in self.carriageways],
                 "crossings": [[round(v, 2) for v in (c.start, c.end, c.right, c.left)] for c in self.crossings]}
 

@@ -28,6 +28,7 @@ from ..geometry import Frame, back_project
 from ..labels import label_id
 from .lanes import lane_at, lanes
 from .rules import GROUND_LEVEL, Rejection, label_mask
+from .street import EGO_HALF_LANE
 from .traffic import (SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, lane_room, parking_fit,
                       sign_distance, street_of)
 
@@ -41,6 +42,8 @@ FACING_LIMIT = 45.0
 SIGN_BAND = 0.3
 #: a footprint may reach this far over its lane's markings (the markings' own width, metres)
 MARKING_SLACK = 0.05
+#: a marking seen over at least this along the street is a lane line wherever it is (metres)
+LINE_SEEN = 6.0
 #: a person's or a sign's footprint grown by this (metres) is where the ground plan's points tell
 #: carriageway from footway; at least CARRIAGEWAY_MIN points are needed to say so
 CARRIAGEWAY_REACH, CARRIAGEWAY_MIN = 0.3, 12
@@ -160,10 +163,31 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
     if cs.min() < lane.right - slack or cs.max() > lane.left + slack:
         return Rejection("across a lane marking", f"the footprint spans {cs.min():.2f}..{cs.max():.2f} m, "
                                                    f"its lane {lane.right:.2f}..{lane.left:.2f} m")
+    if role == "moving":
+        why = _over_a_line(street.carriageways[lane.carriageway], street, a, cs)
+        if why:
+            return why
     if role == "moving" and abs(s - lane.centre) > LANE_CENTRED:
         return Rejection("not centred in its lane", f"{abs(s - lane.centre):.2f} m from its centre")
     if role == "moving" and lane.width < lane_room(w) - 1e-6:
         return Rejection("lane narrower than the vehicle", f"{lane.width:.2f} m for {w:.2f} m")
+    return None
+
+
+def _over_a_line(cw, street, a: float, cs: np.ndarray) -> Rejection | None:
+    """A moving vehicle (its footprint's corners across the street ``cs``, at ``a`` along it)
+    spans no marking of its carriageway seen there over at least LINE_SEEN metres, even one the
+    lanes left out (a dashed line beside a short stretch of paint), except one under the ego
+    vehicle's own path (within EGO_HALF_LANE of it: the ego vehicle does not drive on a lane
+    line, so that is no lane line)."""
+    for mk in cw.markings:
+        if mk.end - mk.start < LINE_SEEN or not mk.start - 1.0 <= a <= mk.end + 1.0:
+            continue
+        if abs(mk.offset - street.ego_offset) <= EGO_HALF_LANE:
+            continue
+        if cs.min() + MARKING_SLACK < mk.offset < cs.max() - MARKING_SLACK:
+            return Rejection("across a lane marking", f"a {mk.kind} line at {mk.offset:.2f} m under the "
+                                                       f"footprint ({cs.min():.2f}..{cs.max():.2f} m)")
     return None
 
 
