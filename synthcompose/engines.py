@@ -15,6 +15,7 @@ from .dataset import ImageSetId
 from .errors import SynthComposeError
 from .manifest import Manifest
 from .pipeline import Outcome, Pipeline
+from .record import Status
 
 log = logging.getLogger("synthcompose")
 
@@ -178,7 +179,7 @@ def process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId]
         while outstanding:
             if not slots:
                 for ident in reversed(pending):
-                    yield Outcome(ident.key, "failed", "no worker left to process it")
+                    yield Outcome(ident.key, Status.FAILED, "no worker left to process it")
                 return
             ready = wait([sl["conn"] for sl in slots.values()] + [sl["proc"].sentinel for sl in slots.values()],
                          timeout=5.0)
@@ -213,7 +214,7 @@ def process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId]
                     for ident in reversed(slot["queued"]):
                         if ident.key == slot["computing"]:
                             outstanding -= 1
-                            yield Outcome(ident.key, "failed",
+                            yield Outcome(ident.key, Status.FAILED,
                                           f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
                         else:
                             pending.append(ident)
@@ -267,7 +268,7 @@ def ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], 
             try:
                 yield ray.get(ref)
             except ray.exceptions.RayError as exc:
-                yield Outcome(ident.key, "failed", f"Ray worker failed on this image set: {type(exc).__name__}")
+                yield Outcome(ident.key, Status.FAILED, f"Ray worker failed on this image set: {type(exc).__name__}")
                 ray.kill(actor, no_restart=True)
                 actor = Actor.remote(manifest, weights)
             submit(actor)

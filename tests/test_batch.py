@@ -13,10 +13,9 @@ from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.synthetic import make_sample
 
-from .helpers import ASSETS, OUT_KINDS, write_manifest  # noqa: F401 - others import them from here
+from .helpers import OUT_KINDS, H, W, write_manifest
 from .tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
 
-W, H = 640, 320
 
 
 @pytest.fixture(scope="module")
@@ -187,6 +186,7 @@ def test_bad_manifest_names_the_field(tmp_path, capsys, change, field):
     assert str(manifest) in err and field in err
 
 
+@pytest.mark.slow
 def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, monkeypatch):
     """Pipeline.stream (read ahead, write behind, on threads) gives the outcomes in order and
     the same bytes as processing each image set alone; a read failure and a write failure

@@ -88,6 +88,7 @@ def test_sunny_scene_gives_the_sun_its_share_and_the_colours(seed, azimuth, elev
     assert np.asarray(lt.sun_rgb) @ LUM * lt.sun_direction[2] == pytest.approx(est.sun_fraction, abs=LIGHTING_FLOAT_ABS)
 
 
+@pytest.mark.slow
 def test_sun_azimuth_over_random_sunny_scenes():
     """The sun's direction, over 48 generated scenes with a sun anywhere round the camera (as
     benchmarks/eval_lighting.py measures it): where the ground in view shows cast shadows, is

@@ -22,7 +22,7 @@ from synthcompose.placements import placement_path, read_saved
 from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
 from synthcompose.synthetic import make_sample
 
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import (CHANGED_PIXEL_8BIT, OVERLAY_TEXT_CHANGED_MIN, PASS_CHANGE_MIN_SHARE, PREVIEW_MOVE_M,
                          PREVIEW_PAN_REL, SAVED_MATRIX_ABS, VIEW_CHANGE_MIN_SHARE, WINDOW_MAX_SHARE, WINDOW_MEAN_8BIT,
                          WINDOW_PIXEL_8BIT)
@@ -91,6 +91,7 @@ def _loaded(m, frame: str):
         s.close()
 
 
+@pytest.mark.slow
 def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     root, ids = dataset
     m = load_manifest(manifest)
@@ -352,6 +353,7 @@ def _same(img, ref, where=None):
     assert diff.mean() < WINDOW_MEAN_8BIT and over < WINDOW_MAX_SHARE, (diff.mean(), over)
 
 
+@pytest.mark.slow
 def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(window_run):
     manifest, ident, got = window_run
     assert "1: composed" in str(got["title_before"]) and "2: Irpv" in str(got["title"])
