@@ -133,7 +133,7 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
         return None
     if dict(record.source_fingerprint) != input_fingerprint(manifest.dataset, ident):
         return None  # an input file changed (or the record predates fingerprints)
-    from .placements import saved_is_stale  # saved placements: a placement saved since means redo
+    from .saved_poses import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record.placement_file):
         return None
     if record.status == Status.DONE:

@@ -37,7 +37,7 @@ from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, chec
 from .placement.rules import rules_from
 from .placement.traffic import Traffic
 from .placement.verdict import lane_yaw_error
-from .placements import placement_from_pose
+from .saved_poses import placement_from_pose
 from .record import ImageSetRecord, read_record
 from .surfaces import frame_for
 

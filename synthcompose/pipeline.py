@@ -33,7 +33,7 @@ from .frequency import object_weights
 from .gl import GLContext
 from .malloc import release_free_memory, steady_malloc
 from .manifest import Manifest
-from .placements import read_saved
+from .saved_poses import read_saved
 from .record import Status
 from .render import Renderer
 from .stages import (Outcome, PhotoLight, Placed, Prepared, Shaded, measure_light, place, prepare, shade, write_done,

@@ -309,7 +309,7 @@ def test_a_model_nothing_of_which_would_be_seen_is_refused_at_the_start(sample, 
 
 
 def test_an_object_with_no_visible_pixel_is_never_written(sample, tmp_path):
-    from synthcompose.placements import write_saved
+    from synthcompose.saved_poses import write_saved
 
     root, ids = sample
     out = tmp_path / "out"
@@ -441,7 +441,7 @@ SAVED = {
 
 
 def test_a_saved_pose_that_cannot_be_fails_its_image_set_naming_the_file(tmp_path):
-    from synthcompose.placements import FORMAT, placement_path
+    from synthcompose.saved_poses import FORMAT, placement_path
 
     root = tmp_path / "cs"
     ids = make_sample(root, count=len(SAVED) + 1, width=W, height=H, seed=3)

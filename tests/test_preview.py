@@ -18,7 +18,7 @@ from synthcompose.cli import main
 from synthcompose.dataset import read_image_set
 from synthcompose.manifest import load_manifest
 from synthcompose.placement import RULE_OF
-from synthcompose.placements import placement_path, read_saved
+from synthcompose.saved_poses import placement_path, read_saved
 from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
 from synthcompose.synthetic import make_sample
 

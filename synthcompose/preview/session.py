@@ -26,7 +26,7 @@ from ..colour import linear_to_srgb
 from ..labels import COLOR_LUT
 from ..manifest import Manifest
 from ..placement import Placement, Rejection, check_pose
-from ..placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
+from ..saved_poses import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
                           write_saved)
 from ..stages import measure_light, place, prepare, shade
 from .export import export_ply

@@ -24,7 +24,7 @@ from ..models.poses import KINDS, WALKING_SHARE
 from ..placement.rules import orientation_for, rules_dict
 from ..placement.lanes import lanes
 from ..placement.traffic import hand_of
-from ..placements import SavedPlacement, pose_problem, saved_result
+from ..saved_poses import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
 from .timing import timed
@@ -75,7 +75,7 @@ class Placed:
 
 
 def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
-    """The manifest object a saved placement names (placements.py)."""
+    """The manifest object a saved placement names (saved_poses.py)."""
     name = saved.objects[k].name
     for spec in m.objects:
         if spec.name == name:
