@@ -19,6 +19,9 @@ TO_BUILD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 AXLES, HALF_TRACK, TYRE_R, TYRE_W, GROUND = (1.2, -1.19), 0.745, 0.30, 0.19, -0.165
 #: the body atlas's alloy-wheel image (u0, v0, u1, v1; glTF's v down)
 WHEEL_BOX = (0.79, 0.0, 0.995, 0.215)
+#: the body atlas's headlamp image (u0, v0, u1, v1; the build's v up): the reflectors' bowls,
+#: the indicator, the lamp's black housing, which every non-glass face of the headlamps maps into
+LAMP_BOX = (0.18, 0.0, 0.32, 0.065)
 
 
 def hatch_mesh(b: Build) -> tuple[Mesh, np.ndarray, np.ndarray]:
@@ -56,8 +59,22 @@ def hatch_roles(body: Mesh, atlas: np.ndarray, material: np.ndarray) -> np.ndarr
     r, gr, bl = col[:, 0], col[:, 1], col[:, 2]
     roles[textured & (r > 0.25) & (r > 2 * gr) & (r > 2 * bl)] = "light_red"
     roles[textured & (r > 0.45) & (gr > 0.2) & (gr < 0.7 * r) & (bl < 0.5 * gr)] = "light_amber"
-    roles[textured & np.char.startswith(g, "headlights") & (lum > 0.25) & (chroma < 0.1)] = "light_white"
+    # the headlamps keep the atlas's own image (bowls, indicator, housing) under their glass: by
+    # face, its texels gave jagged white shards in black (lamp_part)
+    roles[textured & np.char.startswith(g, "headlights")] = "textured.lamp"
     return roles
+
+
+def lamp_part(parts: dict[str, Mesh], atlas: np.ndarray) -> tuple[dict[str, Mesh], np.ndarray]:
+    """The headlamps' faces with UVs onto the crop of the atlas (LAMP_BOX), and that crop (sRGB
+    bytes)."""
+    u0, v0, u1, v1 = LAMP_BOX
+    lamp = parts["textured.lamp"]
+    lamp.uvs = (lamp.uvs - np.array([u0, v0])) / np.array([u1 - u0, v1 - v0])
+    assert lamp.uvs.min() > -1e-6 and lamp.uvs.max() < 1 + 1e-6, "headlamp UVs outside LAMP_BOX"
+    h, w = atlas.shape[:2]
+    crop = atlas[round((1 - v1) * h):round((1 - v0) * h), round(u0 * w):round(u1 * w)]
+    return parts, (crop * 255).round().astype(np.uint8)
 
 
 def tyre_and_rim(radius: float, width: float, segments: int = 64) -> tuple[Mesh, Mesh, Mesh]:
@@ -138,10 +155,11 @@ def make_hatchback(b: Build):
     roles = hatch_roles(body, atlas, material)
     parts = merge(split(body, roles), hatch_wheels())
     parts = add_plates(parts, [(1, 0.2), (-1, 0.53)])
+    parts, lamp = lamp_part(parts, atlas)
     b.notes.append("tyres (surfaces of revolution, 205/55 R16 at the model's scale) and the wheels' faces (the "
                    "source's alloy-wheel image of its body atlas) made by the script at the axle positions of "
                    "HatchBack.java; the source's wheel.j3o (a 178-triangle disc) not used")
-    return finish(parts), {"textured.wheel": wheel_image(atlas)}
+    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}
 
 
 #: the estate: the hatchback lengthened by ESTATE_STRETCH (model units) behind the rear doors'
@@ -167,10 +185,11 @@ def make_estate(b: Build):
     body.vertices[:, 0] -= estate_shift(body.vertices)
     parts = merge(split(body, roles), hatch_wheels())
     parts = add_plates(parts, [(1, 0.2), (-1, 0.53)])
+    parts, lamp = lamp_part(parts, atlas)
     b.notes.append("tyres (surfaces of revolution, 205/55 R16 at the model's scale) and the wheels' faces (the "
                    "source's alloy-wheel image of its body atlas) made by the script at the axle positions of "
                    "HatchBack.java; the source's wheel.j3o (a 178-triangle disc) not used")
-    return finish(parts), {"textured.wheel": wheel_image(atlas)}
+    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}
 
 
 JME_RECIPES = {
@@ -179,7 +198,8 @@ JME_RECIPES = {
         "(Sketchfab), as kept in jme-vehicles", "jme", f"{HATCH}/", "car", "compact", 4.05, 1.0, make_hatchback,
         ("converted from jMonkeyEngine's j3o (the Sketchfab glTF as jme-vehicles converted it) to one GLB; "
          "faces given material roles by their source material (glass, interior) and their texels in the body "
-         "atlas (paint on its light grey, black trim, red and amber lenses, chrome reflectors in the headlamps)",
+         "atlas (paint on its light grey, black trim, red and amber lenses); the headlamps keep the atlas's own image "
+         "(reflector bowls, indicator) under their glass",
          "EU plates added at both ends")),
     "jme-estate": Recipe(
         "Compact estate, made from 'Modern Hatchback - Low Poly model' by Daniel Zhabotinsky (Sketchfab), as kept "
