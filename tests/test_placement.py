@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry import disparity_to_depth, make_frame
-from synthcompose.placement.rules import KEEP_RIGHT_M, travel_yaw
 from synthcompose.placement import (ALLOWED_SURFACES, PlacementRules, frame_noise, place_object, prefilter,
                                     strict_inside)
 from synthcompose.synthetic import random_scene, render_scene
@@ -71,11 +70,6 @@ def test_placed_objects_stand_on_allowed_ground_and_hit_nothing(frame, cls):
             d = scene.road_direction(np.array([m[0, 3]]), np.array([m[1, 3]]))[0]
             off = math.degrees(abs(math.asin(math.sin(p.yaw - math.atan2(d[1], d[0])))))
             assert off <= CAR_YAW_TO_ROAD_DEG
-            # right-hand traffic: in the ego lane or right of it, the ego vehicle's direction
-            fwd = math.atan2(d[1], d[0]) if d[0] >= 0 else math.atan2(-d[1], -d[0])
-            rel = m[:2, 3] - fr.camera.position[:2]
-            if -math.sin(fwd) * rel[0] + math.cos(fwd) * rel[1] < KEEP_RIGHT_M:
-                assert math.cos(p.yaw - fwd) > 0.9, (rel, math.degrees(p.yaw))
     # objects of one frame keep their distance: footprints grown by half the gap do not overlap
     from synthcompose.placement import footprint_corners, footprints_overlap
 
@@ -164,20 +158,3 @@ def test_check_pose_accepts_what_placement_accepted_and_names_the_rule_a_moved_p
     why = check_pose(fr, "car", SIZES["car"], m, rules)
     assert why is not None and why.rule in set(RULE_OF.values()) - {"min visible pixels"}, why
     assert str(why).startswith(f"{why.rule}: {why.reason}")
-
-
-def test_vehicles_keep_right():
-    """Right-hand traffic: ahead in the ego lane or right of it a vehicle travels (or is parked)
-    the ego vehicle's way, whatever the coin says; left of that either way; the road's
-    direction is given mod pi."""
-    for road in (0.1, 0.1 + math.pi, -0.2):
-        fwd = road if math.cos(road) > 0 else road + math.pi  # the ego vehicle's way along the road
-
-        def at(lateral):  # 20 m ahead along the road, ``lateral`` to its left
-            return (20 * math.cos(fwd) - lateral * math.sin(fwd), 20 * math.sin(fwd) + lateral * math.cos(fwd))
-
-        assert travel_yaw(road, at(0.0), True) == fwd
-        assert travel_yaw(road, at(-3.0), True) == fwd  # the lane to the right
-        assert travel_yaw(road, at(1.0), True) == fwd
-        assert math.cos(travel_yaw(road, at(5.0), True) - fwd) < -0.99  # the oncoming lane
-        assert travel_yaw(road, at(5.0), False) == fwd

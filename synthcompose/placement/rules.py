@@ -1,7 +1,6 @@
 """The placement rules and the typed values placement hands on: rules, poses, rejections."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,21 +15,6 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
 #: default orientation rule per class (others: along-road)
 ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
 ORIENTATIONS = ("along-road", "parked", "face-camera", "random")
-
-
-#: right-hand traffic: a vehicle whose centre is left of the ego vehicle's centre line by less
-#: than this (its own lane, a lane to its right, a parking strip on the right) travels, or is
-#: parked, in the ego vehicle's direction (StVO sections 2 and 12(4)); farther left either way
-KEEP_RIGHT_M = 1.75
-
-
-def travel_yaw(road_yaw: float, offset_xy, flip: bool) -> float:
-    """Heading (V frame, radians) of a vehicle along a road of direction ``road_yaw`` (mod pi)
-    at ``offset_xy`` (x forward, y left, metres) from the camera: the ego vehicle's direction
-    of travel in its lane and right of it, either direction (``flip``) left of that."""
-    forward = road_yaw if math.cos(road_yaw) >= 0.0 else road_yaw + math.pi
-    lateral = -math.sin(forward) * float(offset_xy[0]) + math.cos(forward) * float(offset_xy[1])
-    return forward + (math.pi if flip and lateral >= KEEP_RIGHT_M else 0.0)
 
 
 def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:

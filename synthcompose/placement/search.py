@@ -36,7 +36,7 @@ from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests
 from .road import road_line
 from .rules import (GROUND_LEVEL, ORIENTATIONS, Placement, PlacementResult,
-                    PlacementRules, Rejection, label_mask, orientation_for, surfaces_for, travel_yaw)
+                    PlacementRules, Rejection, label_mask, orientation_for, surfaces_for)
 
 UP = np.array([0.0, 0.0, 1.0])
 #: candidates are drawn among every STRIDE-th pixel of each row and column
@@ -191,8 +191,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
                 if orientation == "parked" and abs(line.offset) - w / 2 > rules.parked_kerb_gap:
                     rejections["too far from the kerb (parked)"] += 1
                     continue
-            flip = rng.random() >= 0.5  # drawn always: the stream is the same whichever rule applies
-            yaw = travel_yaw(base, point[:2] - camera.position[:2], flip) + float(rng.uniform(-jitter, jitter))
+            yaw = base + (0.0 if rng.random() < 0.5 else math.pi) + float(rng.uniform(-jitter, jitter))
         # 1. cheap image tests on a provisional level pose: in view, footprint on allowed ground
         why = tests.image(pose_matrix(point, UP, yaw), heights=False)
         if why:
