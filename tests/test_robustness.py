@@ -245,6 +245,7 @@ def test_disk_full_midway_loses_nothing(tmp_path, monkeypatch):
         assert all(ident.path(out, k).is_file() for k in OUT_KINDS)
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_is_reported_and_replaced(tmp_path, monkeypatch):
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=7)
