@@ -19,6 +19,11 @@ TO_BUILD = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 AXLES, HALF_TRACK, TYRE_R, TYRE_W, GROUND = (1.2, -1.19), 0.745, 0.30, 0.19, -0.165
 #: the body atlas's alloy-wheel image (u0, v0, u1, v1; glTF's v down)
 WHEEL_BOX = (0.79, 0.0, 0.995, 0.215)
+#: the wheel's face: the atlas's alloy image carries its own baked highlights, so that at the
+#: textured factor (0.999) the spokes (linear 0.51-0.60, the 75th-90th percentiles) glowed white
+#: next to the real cars' wheels on real frames; the factor takes them to 0.41-0.48, silver
+#: wheel paint's albedo (a judgement by eye, not a measurement)
+WHEEL_FACTOR = {"textured.wheel": ((0.8, 0.8, 0.8, 1.0), 0.0, 0.4)}
 #: the body atlas's headlamp image (u0, v0, u1, v1; the build's v up): the reflectors' bowls,
 #: the indicator, the lamp's black housing, which every non-glass face of the headlamps maps into
 LAMP_BOX = (0.18, 0.0, 0.32, 0.065)
@@ -159,7 +164,7 @@ def make_hatchback(b: Build):
     b.notes.append("tyres (surfaces of revolution, 205/55 R16 at the model's scale) and the wheels' faces (the "
                    "source's alloy-wheel image of its body atlas) made by the script at the axle positions of "
                    "HatchBack.java; the source's wheel.j3o (a 178-triangle disc) not used")
-    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}
+    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}, WHEEL_FACTOR
 
 
 #: the estate: the hatchback lengthened by ESTATE_STRETCH (model units) behind the rear doors'
@@ -189,7 +194,7 @@ def make_estate(b: Build):
     b.notes.append("tyres (surfaces of revolution, 205/55 R16 at the model's scale) and the wheels' faces (the "
                    "source's alloy-wheel image of its body atlas) made by the script at the axle positions of "
                    "HatchBack.java; the source's wheel.j3o (a 178-triangle disc) not used")
-    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}
+    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}, WHEEL_FACTOR
 
 
 JME_RECIPES = {
