@@ -11,6 +11,7 @@ from ..labels import KNOWN_IDS, colorize
 from .frame import render_scene
 from .layout import random_scene
 from .scene import StreetScene
+from .streets import STREET_KINDS
 
 
 def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: dict[str, np.ndarray]) -> None:
@@ -45,23 +46,28 @@ def write_image_set(root: Path, ident: ImageSetId, scene: StreetScene, arrays: d
 
 def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int = 1024, seed: int = 0,
                 split: str = "train", city: str = "synthtown", stereo: str = "realistic",
-                photo: str = "realistic", right: bool = False) -> list[ImageSetId]:
+                photo: str = "realistic", right: bool = False, streets: str | None = None) -> list[ImageSetId]:
     """Render and write ``count`` image sets ``<city>_000000_<frame:06d>`` under ``out_root``.
 
     ``stereo``: ``"realistic"`` writes disparity as semi-global matching measures it,
     ``"exact"`` the exact disparity with 2 % holes; ``photo``: ``"realistic"`` the photo as
     Cityscapes' camera records it, ``"clean"`` the shading as it is (see :func:`render_scene`);
-    ``right``: the right view of the stereo pair too (rightImg8bit).
+    ``right``: the right view of the stereo pair too (rightImg8bit). ``streets``: None draws the
+    streets as earlier versions; ``"traffic"`` lays frame i out as street kind ``i mod 5`` of
+    :data:`.streets.STREET_KINDS` (two-way, one-way, angled and perpendicular bays, a zebra).
 
     Frame i uses ``np.random.default_rng([seed, i])``: the same arguments give byte-identical
     files, and frames do not depend on ``count``. Returns the ids written, in order.
     """
     if count < 0 or seed < 0:
         raise ValueError("count and seed must be non-negative")
+    if streets not in (None, "traffic"):
+        raise ValueError(f"streets must be None or 'traffic', not {streets!r}")
     out_root = Path(out_root)
     idents: list[ImageSetId] = []
     for i in range(count):
-        scene = random_scene(np.random.default_rng([seed, i]), width, height)
+        kind = None if streets is None else STREET_KINDS[i % len(STREET_KINDS)]
+        scene = random_scene(np.random.default_rng([seed, i]), width, height, street=kind)
         ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
         write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo, right=right))
         idents.append(ident)
