@@ -31,6 +31,10 @@ SOURCES = {
     "openmaterial": Source("LudwigFriedmann/OpenMATERIAL", "c1283d565efdbf9f8e4afdc0a593bcabb466378d",
                            "CC-BY-SA-4.0", "", "model_structure/objects/README.md of that commit; ShareAlike: "
                            "the converted model stays under CC-BY-SA 4.0"),
+    "jme": Source("stephengold/jme-vehicles", "cd4cc9becf8500499213850777ea6319bc1a4ac4", "CC-BY-4.0",
+                  "MavCommon/src/main/resources/Models/modern_hatchback/license.txt",
+                  "MavCommon/src/main/resources/Models/modern_hatchback/license.txt of that commit: the model's "
+                  "licensing history (author, Sketchfab page, CC-BY-4.0), followed here by the licence's legal code"),
 }
 
 
@@ -66,10 +70,14 @@ class Build:
 
     def licence_text(self, source: str) -> bytes:
         s = SOURCES[source]
+        legal = Path(__file__).resolve().parent / "licences" / f"{s.spdx}.txt"
+        if s.licence_path and s.spdx.startswith("CC-"):
+            # the source's statement (author, title, where from), then the licence's legal code
+            return git_read(self.gits[source], s.commit, s.licence_path) + b"\n" + b"=" * 79 + b"\n\n" + legal.read_bytes()
         if s.licence_path:
             return git_read(self.gits[source], s.commit, s.licence_path)
         # the repository states the licence in a README only: its legal code, kept in scripts/licences
-        return (Path(__file__).resolve().parent / "licences" / f"{s.spdx}.txt").read_bytes()
+        return legal.read_bytes()
 
     # -------------------------------------------------------------- shared steps
     def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 2500,
