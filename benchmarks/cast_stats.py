@@ -77,7 +77,8 @@ def count(outputs: list[Path]) -> dict:
                     signs[look["sign"]["code"]] += 1
                     below.update(look["sign"].get("below", []))
     return {"image_sets": sets, "objects": dict(objects), "car_models": dict(cars), "bus_lorry_models": dict(heavy),
-            "people": dict(people), "poses": dict(poses), "pose_kinds": dict(coarse), "distinct_pose_descriptions": len(whole_poses),
+            "people": dict(people), "poses": dict(poses), "pose_kinds": dict(coarse),
+            "distinct_pose_descriptions": len(whole_poses),
             "sign_types": dict(signs), "supplementary_signs": dict(below)}
 
 

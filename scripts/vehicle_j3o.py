@@ -186,7 +186,8 @@ def read_j3o(data: bytes) -> list[J3OGeometry]:
     def walk(node: dict, rot: np.ndarray, offset: np.ndarray, scale: np.ndarray) -> None:
         t = r.ref(node.get("transform"))
         if t:
-            local_rot, local_t, local_s = _quat_matrix(r.ref(t.get("rot"))), vec(t.get("translation"), 0.0), vec(t.get("scale"), 1.0)
+            local_rot = _quat_matrix(r.ref(t.get("rot")))
+            local_t, local_s = vec(t.get("translation"), 0.0), vec(t.get("scale"), 1.0)
             offset = offset + rot @ (scale * local_t)
             rot = rot @ local_rot
             scale = scale * local_s

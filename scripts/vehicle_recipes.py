@@ -10,10 +10,21 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-
 from vehicle_glb import MATERIALS
-from vehicle_mesh import (Mesh, concat, corner_samples, crease_normals, decimate, face_samples, git_image, git_read, in_box, plate_quad, plate_uvs,
-                          ray_hits, read_obj, smooth_normals, wind_outwards)
+from vehicle_mesh import (
+    Mesh,
+    concat,
+    corner_samples,
+    decimate,
+    face_samples,
+    git_image,
+    git_read,
+    plate_quad,
+    plate_uvs,
+    ray_hits,
+    read_obj,
+    wind_outwards,
+)
 
 
 @dataclass(frozen=True)
@@ -105,7 +116,8 @@ class Build:
             spindle = np.asarray(susp["Spindle"]["COM"], float)
             loc = np.asarray(axle["Suspension Location"], float)
             twin = "Left Outside Wheel Input File" in axle  # twin tyres: outside and inside of the spindle
-            wheel = self.json("chrono", f"data/vehicle/{axle['Left Outside Wheel Input File' if twin else 'Left Wheel Input File']}")
+            key = 'Left Outside Wheel Input File' if twin else 'Left Wheel Input File'
+            wheel = self.json("chrono", f"data/vehicle/{axle[key]}")
             rim = self.obj("chrono", f"data/vehicle/{wheel['Visualization']['Mesh Filename']}")
             if rim_faces:
                 rim = decimate(rim, rim_faces)
@@ -455,7 +467,8 @@ def jeep_wheels(b: Build) -> dict[str, Mesh]:
     centres = []
     for x, name in ((0.0, "Cherokee_SolidAxleFront.cpp"), (rear_x, "Cherokee_SolidAxleRear.cpp")):
         text = self_text(b, src + name)
-        y, z = (float(v) for v in re.search(r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)", text).groups())
+        spindle = r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)"
+        y, z = (float(v) for v in re.search(spindle, text).groups())
         centres.append((x, y, z))
     rim = b.obj("chrono", f"{JEEP}/Cherokee_Wheel.obj")
     tyre = decimate(b.obj("chrono", f"{JEEP}/Cherokee_Tire.obj"), 3000)

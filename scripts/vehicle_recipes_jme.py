@@ -5,9 +5,8 @@ lengthening its body behind the rear doors (docs/vehicles.md)."""
 from __future__ import annotations
 
 import numpy as np
-
 from vehicle_j3o import read_j3o
-from vehicle_mesh import Mesh, concat, face_samples, corner_samples
+from vehicle_mesh import Mesh, concat, corner_samples, face_samples
 from vehicle_recipes import Build, Recipe, add_plates, finish, merge, split
 
 HATCH = "MavCommon/src/main/resources/Models/modern_hatchback"

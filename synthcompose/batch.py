@@ -29,12 +29,12 @@ import numpy as np
 
 from .cast import preload
 from .dataset import ImageSetId, input_fingerprint
+from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .errors import ManifestError, SynthComposeError
 from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .pipeline import STAGES, Outcome
 from .record import Status, read_record
 from .selection import select_image_sets

@@ -11,7 +11,7 @@ from synthcompose.appearance import appearance_rng, draw_appearance
 from synthcompose.models import NEUTRAL_PLATE, load_model
 from synthcompose.placement import pose_matrix
 from synthcompose.plates import draw_registration, plate_image
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
 
