@@ -65,7 +65,8 @@ def measure_light(m: Manifest, prep: Prepared, timings: dict[str, float]) -> Pho
     with timed(timings, "lighting"):
         estimate = match = reference = None
         if m.lighting_mode == "estimate":
-            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera)
+            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera,
+                                         labelled=frame.labelled)
         if m.camera_match:
             match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,

@@ -1,0 +1,193 @@
+"""The sun as the ground plan shows it: whether its shadow edges are there (:mod:`.edges`), the
+directions they run along, how deep they are, and the lit and shadowed levels and colours of
+the ground (what the estimate takes from it: :mod:`.estimate`).
+
+A sun is seen when at least :data:`MIN_EDGE_LENGTH` metres of shadow edge (steps between two
+regions, and narrow dark lines: a pole's shadow) lie on the ground within the plan's reach, in
+chains, each at least 1.8 times darker on one side. Paint, kerbs, the shade at the foot of what
+stands and the ground's texture do not make such edges (:mod:`.edges`); an overcast sky leaves
+none, a sun's shadows many metres of them (per-frame figures: docs/realism.md).
+
+The shadow edges of vertical casters (poles, trunks, the corners of cars and houses) run along
+the sun's azimuth on the ground; roof lines and car sides throw edges along the street. The
+directions of the edges are histogrammed (weighed by length) and their strongest few peaks are
+the azimuths (mod 180) the estimate chooses from, with the shadows the casters in view would
+throw (:mod:`.casters`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .edges import MIN_CHAIN, ShadowEdges, shadow_edges
+from .light import LUM
+from .plan import CELL, GroundPlan, ground_plan
+
+#: metres of shadow edge on the ground plan that mean a sun
+MIN_EDGE_LENGTH = 2.0
+#: peaks of the edges' directions kept (degrees apart at least PEAK_SEPARATION)
+PEAKS, PEAK_SEPARATION = 3, 20
+
+
+@dataclass(frozen=True)
+class PlanSun:
+    """What the ground plan says of the sun.
+
+    edge_length : metres of shadow edge (steps and dark lines, in chains)
+    sunny       : edge_length >= :data:`MIN_EDGE_LENGTH`
+    step        : median log luminance of the edges' steps (bright over dark), 0 without edges
+    chroma      : median chromatic step of the edges (> 0: the dark side bluer), nan unknown
+    azimuths    : ((azimuth mod 180 in degrees, metres of edge within 7.5 degrees of it), ...)
+                  the strongest first
+    levels      : ((label, lit linear luminance), ...) of the plan's ground kinds that have both
+                  levels, by their own split
+    shadow_log_ratio : log(shadow / lit) of those kinds (their cores), 0 without
+    lit_rgb, shadow_rgb : mean linear colour (luminance 1) of the lit and the shadowed ground
+    lit_share   : share of the ground measured that is lit
+    area        : square metres of ground measured
+    """
+
+    edge_length: float
+    sunny: bool
+    step: float
+    chroma: float
+    azimuths: tuple
+    levels: tuple
+    shadow_log_ratio: float
+    lit_rgb: tuple
+    shadow_rgb: tuple
+    lit_share: float
+    area: float
+
+    def to_dict(self) -> dict:
+        return {"edge_length_m": round(self.edge_length, 2), "sunny": self.sunny, "step": round(self.step, 3),
+                "chroma": None if not np.isfinite(self.chroma) else round(self.chroma, 3),
+                "azimuths": [[round(a, 1), round(m, 2)] for a, m in self.azimuths],
+                "shadow_log_ratio": round(self.shadow_log_ratio, 3), "lit_share": round(self.lit_share, 3),
+                "area_m2": round(self.area, 1)}
+
+
+def measure(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera, labelled: bool = True,
+            plan: GroundPlan | None = None) -> tuple[PlanSun, GroundPlan, ShadowEdges]:
+    """(:class:`PlanSun`, the plan, its edges) of a photo (the arguments of
+    :func:`~.plan.ground_plan`)."""
+    plan = plan if plan is not None else ground_plan(rgb, label_ids, depth, camera, labelled)
+    edges = shadow_edges(plan)
+    counted = edges.chain >= MIN_CHAIN
+    length = float(counted.sum() * CELL)
+    step = float(np.median(edges.step[counted])) if counted.any() else 0.0
+    ch = edges.chroma[counted & np.isfinite(edges.chroma)]
+    chroma = float(np.median(ch)) if len(ch) >= 5 else float("nan")
+    levels, ratio, lit_rgb, shadow_rgb, lit_share = _levels(plan, step if length >= MIN_EDGE_LENGTH else 0.0)
+    return PlanSun(length, length >= MIN_EDGE_LENGTH, step, chroma, _peaks(edges, counted), levels, ratio,
+                   lit_rgb, shadow_rgb, lit_share, edges.area), plan, edges
+
+
+def _peaks(edges: ShadowEdges, counted: np.ndarray) -> tuple:
+    """The strongest directions of the counted edges: ((azimuth mod 180, metres), ...)."""
+    if not counted.any():
+        return ()
+    h = np.bincount(np.round(edges.along[counted]).astype(np.int64) % 180, minlength=180).astype(np.float64)
+    smooth = np.convolve(np.concatenate([h[-7:], h, h[:7]]), np.ones(15), "valid")
+    out = []
+    for _ in range(PEAKS):
+        i = int(np.argmax(smooth))
+        if smooth[i] <= 0:
+            break
+        w = np.arange(i - 7, i + 8)
+        centre = float((w @ h[w % 180]) / max(h[w % 180].sum(), 1e-9)) % 180.0
+        out.append((centre, float(smooth[i] * CELL)))
+        smooth[np.arange(i - PEAK_SEPARATION, i + PEAK_SEPARATION + 1) % 180] = 0.0
+    return tuple(out)
+
+
+def _levels(plan: GroundPlan, step: float):
+    """Per ground kind of the plan, its lit and shadowed cells split at half the edges' step
+    below its brightest usual level: (levels, log(shadow / lit) of the cores, lit colour, shadow
+    colour, lit share). Without a step: all lit."""
+    y = plan.lin @ LUM.astype(np.float32)
+    ll = np.log(np.maximum(y, 1e-5))
+    levels, steps, weights = [], [], []
+    lit_acc, sh_acc = np.zeros(3), np.zeros(3)
+    n_lit = n_all = 0
+    for k in np.unique(plan.cls[plan.valid]):
+        sel = plan.valid & (plan.cls == k) & ~plan.clipped
+        if sel.sum() < 600:
+            continue
+        v = ll[sel]
+        top = float(np.quantile(v, 0.9))
+        lit = v > top - step / 2 if step > 0 else np.ones(len(v), bool)
+        n_all += len(v)
+        n_lit += int(lit.sum())
+        c = plan.lin[sel]
+        if lit.sum() >= 100:
+            levels.append((int(k), float(np.exp(np.median(v[lit])))))
+            lit_acc += _unit(c[lit].mean(axis=0)) * lit.sum()
+        if step > 0 and (~lit).sum() >= 100 and lit.sum() >= 100:
+            steps.append(float(np.median(v[~lit]) - np.median(v[lit])))
+            weights.append(min(int(lit.sum()), int((~lit).sum())))
+            sh_acc += _unit(c[~lit].mean(axis=0)) * (~lit).sum()
+    ratio = float(np.average(steps, weights=weights)) if steps else 0.0
+    lit_rgb = tuple(float(t) for t in _unit(lit_acc)) if lit_acc.any() else (1.0, 1.0, 1.0)
+    shadow_rgb = tuple(float(t) for t in _unit(sh_acc)) if sh_acc.any() else lit_rgb
+    return tuple(levels), ratio, lit_rgb, shadow_rgb, (n_lit / n_all if n_all else 1.0)
+
+
+def _unit(c) -> np.ndarray:
+    c = np.maximum(np.asarray(c, np.float64), 1e-6)
+    return c / float(c @ LUM)
+
+
+#: elevations (degrees) tried along the edges' azimuths
+ELEVATIONS = (10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0, 55.0, 60.0, 65.0, 70.0)
+#: without casters to tell, the sun's elevation (degrees): a shadow as long as the caster is high
+DEFAULT_ELEVATION = 45.0
+
+
+def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
+    """The sun's (azimuth, elevation, info) along the edges' directions: each peak azimuth and
+    its half turn, within 6 degrees, at :data:`ELEVATIONS`, scored by how the casters in view
+    throw their shadows onto dark ground there (``casters``: :class:`~.casters._CasterCue` or
+    None); without casters, or where none agrees, by ``evidence(az, el) -> (score, info)`` (the
+    shading pairs and the predicted shadows) at :data:`DEFAULT_ELEVATION`. ``info`` is
+    evidence's at the chosen direction, with the casters' agreement."""
+    az, el = [], []
+    for phi, _ in ps.azimuths:
+        for base in (phi, phi + 180.0):
+            for d in (-6.0, -3.0, 0.0, 3.0, 6.0):
+                for e in ELEVATIONS:
+                    az.append((base + d) % 360.0)
+                    el.append(e)
+    az_a, el_a = np.array(az), np.array(el)
+    agreement = 0.0
+    best = None
+    if casters is not None and len(az_a):
+        agree, dark, _ = casters.score(az_a, el_a)
+        i = int(np.argmax(agree))
+        if agree[i] > 0 and dark[i] >= 10:
+            best, agreement = (float(az_a[i]), float(el_a[i])), float(agree[i])
+    if best is None:
+        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION) for phi, _ in ps.azimuths[:1] for h in (0.0, 180.0)]
+        best = max(tries, key=lambda t: evidence(*t)[0]) if tries else (0.0, DEFAULT_ELEVATION)
+    info = dict(evidence(*best)[1])
+    info["caster_agreement"] = agreement
+    return best[0], best[1], info
+
+
+def strength(ps: PlanSun) -> float:
+    """0..1: how clearly the edges show a sun (their length against twice the threshold)."""
+    return float(np.clip(ps.edge_length / (2 * MIN_EDGE_LENGTH), 0.0, 1.0))
+
+
+def log_ratio(ps: PlanSun) -> float:
+    """log(shadow / lit) of the ground: its kinds' cores, or the edges' step."""
+    return ps.shadow_log_ratio if ps.shadow_log_ratio < -0.2 else -ps.step
+
+
+def colours(ps: PlanSun, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sky, sun, ground) colours (luminance 1): the shadowed ground's is the sky's, lit minus
+    shadowed the sun's, the lit ground's the ground's."""
+    lit, shade = np.asarray(ps.lit_rgb), np.asarray(ps.shadow_rgb)
+    sun = np.maximum(lit - shade * np.exp(delta), 1e-3)
+    return _unit(shade), _unit(sun), _unit(lit)
