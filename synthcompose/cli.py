@@ -37,7 +37,7 @@ def _make_sample(args: argparse.Namespace) -> int:
 
     width, height = (int(v) for v in args.size.lower().split("x"))
     ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed,
-                      stereo=args.stereo, photo=args.photo, right=not args.no_right)
+                      stereo=args.stereo, photo=args.photo, right=not args.no_right, light=args.light)
     print(f"wrote {len(ids)} image sets to {args.out}")
     return 0
 
@@ -152,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--photo", choices=("realistic", "clean"), default="realistic",
                    help="the photo as Cityscapes' camera records it (default) or the clean shading")
     s.add_argument("--no-right", action="store_true", help="write no right view (rightImg8bit) of the stereo pair")
+    s.add_argument("--light", choices=("default", "sunny"), default="default",
+                   help="an overcast day's shading (default) or a sunny day's: a sun with cast shadows")
     s.set_defaults(func=_make_sample)
     cl = command("compare-lighting", help="side by side: fixed light | estimated light, input | output")
     cl.add_argument("manifest", help="manifest JSON (see README)")

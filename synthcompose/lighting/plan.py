@@ -36,6 +36,7 @@ STANDING_HEIGHT = 0.3
 DEPTH_RATIO = (0.82, 1.08)
 RAISED_RATIO = 0.955
 _STEP = 2  # image subsampling of the point cloud (pixels)
+FOOT_REACH = 0.3  # metres: how near a shadow's end must come to a caster's foot
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,6 +51,8 @@ class GroundPlan:
     u, v     : (nx, ny) float32, the full-resolution pixel of each cell
     footprint: (nx, ny) float32, metres along x one image row spans there (the image's own
                blur, in metres on the plan, is this along x and far less across)
+    feet     : (nx, ny) bool, cells where something stands (its points 0.3-2 m over the plane),
+               grown by :data:`FOOT_REACH`: where a caster's shadow starts
     plane    : (a, b, c) of the road plane; ``origin``: (x, y) of cell (0, 0)'s corner
     """
 
@@ -60,6 +63,7 @@ class GroundPlan:
     u: np.ndarray
     v: np.ndarray
     footprint: np.ndarray
+    feet: np.ndarray
     plane: tuple[float, float, float]
     origin: tuple[float, float]
 
@@ -152,7 +156,8 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
                      borderValue=float("nan"))
     plane_lab = cv2.remap(label_ids, u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     ok = cv2.remap(good, u / _STEP, v / _STEP, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0) > 0
-    clip = cv2.remap((rgb.max(axis=-1) >= 250).astype(np.uint8), u, v, cv2.INTER_NEAREST,
+    brightest = cv2.max(cv2.max(rgb[..., 0], rgb[..., 1]), rgb[..., 2])
+    clip = cv2.remap((brightest >= 250).astype(np.uint8), u, v, cv2.INTER_NEAREST,
                      borderMode=cv2.BORDER_CONSTANT, borderValue=1) > 0
     with np.errstate(invalid="ignore"):
         ratio = seen / np.where(np.isfinite(zo), zo, np.inf)
@@ -163,7 +168,16 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
                    np.where(labelled, 0, np.where(ratio < RAISED_RATIO, SIDEWALK, ROAD))).astype(np.uint8)
     cls[~valid] = 0
     footprint = np.nan_to_num(zo * zo / (camera.fy * max(camera.z - a, 0.5)), nan=1.0).astype(np.float32)
-    return GroundPlan(lin.astype(np.float32), valid, cls, clip, u, v, footprint, (a, b, c), (float(x0), float(y0)))
+    feet = np.zeros((nx, ny), np.uint8)
+    low = standing & (height < 2.0)
+    fr = np.floor((pts[..., 0][low] - x0) / CELL).astype(np.int64)
+    fc = np.floor((y0 - pts[..., 1][low]) / CELL).astype(np.int64)
+    inplan = (fr >= 0) & (fr < nx) & (fc >= 0) & (fc < ny)
+    feet[fr[inplan], fc[inplan]] = 1
+    k = 2 * int(round(FOOT_REACH / CELL)) + 1
+    feet = cv2.dilate(feet, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
+    return GroundPlan(lin.astype(np.float32), valid, cls, clip, u, v, footprint, feet, (a, b, c),
+                      (float(x0), float(y0)))
 
 
 def completed_labels(label_ids: np.ndarray, depth: np.ndarray, camera: Camera) -> np.ndarray:

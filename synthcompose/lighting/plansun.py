@@ -38,8 +38,11 @@ class PlanSun:
     sunny       : edge_length >= :data:`MIN_EDGE_LENGTH`
     step        : median log luminance of the edges' steps (bright over dark), 0 without edges
     chroma      : median chromatic step of the edges (> 0: the dark side bluer), nan unknown
-    azimuths    : ((azimuth mod 180 in degrees, metres of edge within 7.5 degrees of it), ...)
-                  the strongest first
+    azimuths    : ((azimuth mod 180 in degrees, metres of edge within 7.5 degrees of it, side),
+                  ...) the strongest first; ``side`` +1 where the straight segments along it
+                  start at a caster's foot at their end towards the azimuth (the sun is that
+                  way: a shadow runs from its caster away from the sun), -1 towards azimuth +
+                  180, 0 where they do not tell
     levels      : ((label, lit linear luminance), ...) of the plan's ground kinds that have both
                   levels, by their own split
     shadow_log_ratio : log(shadow / lit) of those kinds (their cores), 0 without
@@ -63,7 +66,7 @@ class PlanSun:
     def to_dict(self) -> dict:
         return {"edge_length_m": round(self.edge_length, 2), "sunny": self.sunny, "step": round(self.step, 3),
                 "chroma": None if not np.isfinite(self.chroma) else round(self.chroma, 3),
-                "azimuths": [[round(a, 1), round(m, 2)] for a, m in self.azimuths],
+                "azimuths": [[round(a, 1), round(m, 2), side] for a, m, side in self.azimuths],
                 "shadow_log_ratio": round(self.shadow_log_ratio, 3), "lit_share": round(self.lit_share, 3),
                 "area_m2": round(self.area, 1)}
 
@@ -80,7 +83,8 @@ def measure(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera, l
     ch = edges.chroma[counted & np.isfinite(edges.chroma)]
     chroma = float(np.median(ch)) if len(ch) >= 5 else float("nan")
     levels, ratio, lit_rgb, shadow_rgb, lit_share = _levels(plan, step if length >= MIN_EDGE_LENGTH else 0.0)
-    return PlanSun(length, length >= MIN_EDGE_LENGTH, step, chroma, _peaks(edges, counted), levels, ratio,
+    peaks = tuple((az, m, _side(plan, edges, az)) for az, m in _peaks(edges, counted))
+    return PlanSun(length, length >= MIN_EDGE_LENGTH, step, chroma, peaks, levels, ratio,
                    lit_rgb, shadow_rgb, lit_share, edges.area), plan, edges
 
 
@@ -100,6 +104,35 @@ def _peaks(edges: ShadowEdges, counted: np.ndarray) -> tuple:
         out.append((centre, float(smooth[i] * CELL)))
         smooth[np.arange(i - PEAK_SEPARATION, i + PEAK_SEPARATION + 1) % 180] = 0.0
     return tuple(out)
+
+
+def _side(plan: GroundPlan, edges: ShadowEdges, azimuth: float) -> int:
+    """Which way along ``azimuth`` (mod 180) the sun lies, from the straight segments along it
+    (within 10 degrees) that start at a caster's foot (:attr:`GroundPlan.feet`) at one end and
+    not at the other: +1 towards ``azimuth``, -1 towards its half turn, 0 undecided (votes
+    weighed by length, a clear majority needed)."""
+    x0, y0 = plan.origin
+    nr, nc = plan.feet.shape
+    vote = 0.0
+    total = 0.0
+    for az, length, xa, ya, xb, yb in edges.segments:
+        if min(abs(az - azimuth) % 180.0, 180.0 - abs(az - azimuth) % 180.0) > 10.0:
+            continue
+        ends = []
+        for x, y in ((xa, ya), (xb, yb)):
+            r, c = int((x - x0) / CELL), int((y0 - y) / CELL)
+            ends.append(0 <= r < nr and 0 <= c < nc and bool(plan.feet[r, c]))
+        if ends[0] == ends[1]:
+            continue
+        foot = (xa, ya) if ends[0] else (xb, yb)
+        tail = (xb, yb) if ends[0] else (xa, ya)
+        towards = np.degrees(np.arctan2(foot[1] - tail[1], foot[0] - tail[0]))  # tail -> foot: to the sun
+        d = (towards - azimuth) % 360.0
+        vote += length if (d < 90.0 or d > 270.0) else -length
+        total += length
+    if total <= 0 or abs(vote) < 0.5 * total:
+        return 0
+    return 1 if vote > 0 else -1
 
 
 def _levels(plan: GroundPlan, step: float):
@@ -153,8 +186,8 @@ def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
     shading pairs and the predicted shadows) at :data:`DEFAULT_ELEVATION`. ``info`` is
     evidence's at the chosen direction, with the casters' agreement."""
     az, el = [], []
-    for phi, _ in ps.azimuths:
-        for base in (phi, phi + 180.0):
+    for phi, _, side in ps.azimuths:
+        for base in ((phi, phi + 180.0) if side == 0 else ((phi,) if side > 0 else (phi + 180.0,))):
             for d in (-6.0, -3.0, 0.0, 3.0, 6.0):
                 for e in ELEVATIONS:
                     az.append((base + d) % 360.0)
@@ -168,7 +201,8 @@ def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
         if agree[i] > 0 and dark[i] >= 10:
             best, agreement = (float(az_a[i]), float(el_a[i])), float(agree[i])
     if best is None:
-        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION) for phi, _ in ps.azimuths[:1] for h in (0.0, 180.0)]
+        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION) for phi, _, side in ps.azimuths[:1]
+                 for h in ((0.0, 180.0) if side == 0 else ((0.0,) if side > 0 else (180.0,)))]
         best = max(tries, key=lambda t: evidence(*t)[0]) if tries else (0.0, DEFAULT_ELEVATION)
     info = dict(evidence(*best)[1])
     info["caster_agreement"] = agreement

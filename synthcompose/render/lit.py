@@ -24,9 +24,12 @@ from .values import Lighting, RenderObject
 
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 _UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (contact shadows)
-#: the sky's occlusion on the ground is averaged over discs of this radius and 2.5 times it
-#: (metres): under an overcast sky an object shades the ground around it over about its height
-SKY_RADIUS = 0.5
+#: tangent of the sun's angular radius (0.267 degrees): a shadow's edge is this soft per metre
+#: from its caster (shaders/lit.glsl, sun_visibility)
+SUN_RADIUS = math.tan(math.radians(0.267))
+#: a ground plane's darkening (the objects' shadows and occlusion) fades out over this many
+#: metres to its edges, so that no outline of the plane shows (values.PLANE_MARGIN is wider)
+PLANE_FADE = 0.3
 #: contact shadow: ground under a part of an object lower than about this (metres) loses most
 #: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
 CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
@@ -59,7 +62,7 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
         "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
         "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
         "u_sun_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sun_mat), "u_sky_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sky_mat),
-        "u_sky_radius": SKY_RADIUS / (2 * half),  # in map units
+        "u_map_metres": 2 * half, "u_sun_radius": SUN_RADIUS,
         "u_under_map": _UNDER_UNIT, "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
         "u_under_range": 2 * half + 10.0 - 0.1,  # metres the under map's depth 0..1 spans
         "u_self_bias": 0.05 / (2 * half + 10.0 - 0.1),
@@ -160,6 +163,9 @@ class LitDraw:
         vao = self.plane.vao(prog)
         for obj in objects:
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
+            if shadows:
+                prog["u_plane_half"].value = obj.plane_half(lighting)
+                prog["u_plane_fade"].value = PLANE_FADE
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)

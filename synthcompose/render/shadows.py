@@ -43,9 +43,10 @@ class ShadowMaps:
         self.maps: list[tuple[moderngl.Texture, moderngl.Framebuffer]] = []
         for k in range(3):  # sun map, top-down sky-occlusion map, the objects' undersides from below
             tex = gl.own(ctx.depth_texture((shadow_size, shadow_size)))
-            # the first two are shadow tests; the third is read as depth: how high the lowest
-            # part of an object stands over each ground point (contact shadows, lit.glsl)
-            tex.compare_func = "<=" if k < 2 else ""
+            # read as depths (lit.glsl compares them itself): how far the objects stand from the
+            # sun (the penumbra's size), how high they rise over a ground point (its horizon),
+            # how high their lowest part stands over it (contact shadows)
+            tex.compare_func = ""
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = False
             fbo = gl.own(ctx.framebuffer(depth_attachment=tex))

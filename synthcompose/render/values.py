@@ -16,6 +16,11 @@ from ..lighting.light import Lighting
 from ..models import Model
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
+#: a ground plane reaches this far (metres) beyond the object's footprint: past where its
+#: occlusion of the sky has faded (render.lit.PLANE_FADE), so the plane's edges never show
+PLANE_MARGIN = 1.9
+#: and as far as the sun throws the object's shadow, up to this (metres)
+SHADOW_REACH = 8.0
 
 
 @dataclass(frozen=True)
@@ -40,17 +45,18 @@ class RenderObject:
     model: Model
     vehicle_from_object: np.ndarray  # (4, 4)
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
-    plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    plane_margin: float = PLANE_MARGIN  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
     recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
     plate: str | None = None  # the registration on its number plates (plates.py); None: blank plates
 
     def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
         """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
-        the margin, and as far as the sun can throw the object's shadow (at most 4 m)."""
+        the margin, and as far as the sun can throw the object's shadow (at most
+        :data:`SHADOW_REACH`)."""
         l, w, h = self.model.extents
         el_sin = max(lighting.sun_direction[2], 0.05)
-        reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, 4.0)
+        reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, SHADOW_REACH)
         return l / 2 + self.plane_margin + reach, w / 2 + self.plane_margin + reach
 
     def plane_matrix(self, lighting: "Lighting") -> np.ndarray:
