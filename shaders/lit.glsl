@@ -68,6 +68,8 @@ uniform float u_map_metres;     // metres across every light map (their square's
 uniform float u_sun_radius;     // tangent of the sun's angular radius
 uniform vec2 u_plane_half;      // this ground plane's half sizes, metres (PLANE)
 uniform float u_plane_fade;     // its darkening fades out over this many metres to its edges
+uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
+const float GROUND_SKY_BLUR = 0.25;  // metres
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
@@ -127,32 +129,6 @@ float sun_visibility(vec3 p) {
     for (int i = 0; i < 12; ++i)
         vis += step(s.z - 0.002, texture(u_sun_map, s.xy + m * DISC[i]).r);
     return vis / 13.0;
-}
-
-// The sky a ground point at p sees past the objects: over 8 directions, the highest horizon the
-// objects (their tops seen from straight above) raise, each direction's share of the cosine-
-// weighted sky being cos^2 of its horizon's elevation. An occluder's rise counts less with its
-// distance, to nothing at SKY_REACH (so the darkening ends smoothly, well inside the plane:
-// values.PLANE_MARGIN). Darkest under the objects and at their foot, falling off over about
-// their height.
-const float SKY_REACH = 1.7;
-const float SKY_STEPS[5] = float[](0.06, 0.18, 0.4, 0.75, 1.2);
-float sky_visibility(vec3 p) {
-    vec4 s = u_sky_matrix * vec4(p, 1.0);
-    float open = 0.0;
-    for (int i = 0; i < 8; ++i) {
-        float a = 0.7853982 * float(i) + 0.3926991;
-        vec2 dir = vec2(cos(a), sin(a)) / u_map_metres;
-        float t = 0.0;  // tangent of the horizon's elevation
-        for (int k = 0; k < 5; ++k) {
-            float r = SKY_STEPS[k];
-            float rise = (s.z - texture(u_sky_map, s.xy + dir * r).r) * u_under_range;
-            float fall = 1.0 - (r / SKY_REACH) * (r / SKY_REACH);
-            t = max(t, rise / r * fall);
-        }
-        open += 1.0 / (1.0 + t * t);
-    }
-    return open / 8.0;
 }
 
 float contact_occlusion(vec3 p) {
@@ -247,7 +223,13 @@ void main() {
     vec2 edge = (1.0 - abs(v_local)) * u_plane_half;
     float fade = smoothstep(0.0, u_plane_fade, min(edge.x, edge.y));
     float sun_vis = mix(1.0, sun_visibility(v_world), fade);
-    float sky_vis = mix(1.0, mix(0.12, 1.0, sky_visibility(v_world)) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
+    // the ground's sky (ground_sky.glsl), read over a disc of GROUND_SKY_BLUR metres
+    vec2 g = (u_sky_matrix * vec4(v_world, 1.0)).xy;
+    float open = texture(u_ground_sky, g).r;
+    for (int i = 0; i < 12; ++i)
+        open += texture(u_ground_sky, g + DISC[i] * (GROUND_SKY_BLUR / u_map_metres)).r;
+    open /= 13.0;
+    float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
 #endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
     vec3 sun_rgb = u_sun_rgb * sun_scale;

@@ -64,6 +64,7 @@ class ShadowEdges:
               bluer (nan where clipped, and for lines)
     line    : (N,) bool, a narrow dark line's centre rather than a step's edge
     chain   : (N,) metres, the extent of the chain it belongs to
+    anchored: (N,) bool, its chain reaches a caster's foot (a vertical caster's shadow starts there)
     segments: ((azimuth mod 180, length m, x0, y0, x1, y1), ...) straight segments
     area    : square metres of ground measured
     """
@@ -74,6 +75,7 @@ class ShadowEdges:
     chroma: np.ndarray
     line: np.ndarray
     chain: np.ndarray
+    anchored: np.ndarray
     segments: tuple
     area: float
 
@@ -165,10 +167,10 @@ def shadow_edges(plan: GroundPlan) -> ShadowEdges:
     along = np.concatenate([GroundPlan.direction(-uc, ur) % 180.0, lalong])
     step = np.concatenate([step, ldepth])
     chroma = np.concatenate([chroma, np.full(len(lr), np.nan)])
-    chains = _chains(rows, cols, (nr, nc))
+    chains, anchored = _chains(rows, cols, (nr, nc), plan.feet)
     long = chains >= MIN_CHAIN
     segments = _segments(plan, rows[long], cols[long], (nr, nc))
-    return ShadowEdges(plan.xy(rows, cols), along, step, chroma, line, chains, segments,
+    return ShadowEdges(plan.xy(rows, cols), along, step, chroma, line, chains, anchored, segments,
                        float(used.sum() * CELL * CELL))
 
 
@@ -223,16 +225,18 @@ def _dark_lines(sm: np.ndarray, used: np.ndarray):
     return r, c, depth[r, c].astype(np.float64), along
 
 
-def _chains(rows: np.ndarray, cols: np.ndarray, shape) -> np.ndarray:
+def _chains(rows: np.ndarray, cols: np.ndarray, shape, feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(N,) metres: the diagonal of the box of the 8-connected chain (edge cells dilated by
-    one) each point belongs to."""
+    one) each point belongs to; (N,) bool: its chain reaches a caster's foot (``feet``)."""
     if not len(rows):
-        return np.zeros(0)
+        return np.zeros(0), np.zeros(0, bool)
     m = np.zeros(shape, np.uint8)
     m[rows, cols] = 1
     n, comp, stats, _ = cv2.connectedComponentsWithStats(cv2.dilate(m, np.ones((3, 3), np.uint8)), connectivity=8)
     ext = np.hypot(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT]) * CELL
-    return ext[comp[rows, cols]]
+    at_foot = np.zeros(n, bool)
+    at_foot[np.unique(comp[(comp > 0) & feet])] = True
+    return ext[comp[rows, cols]], at_foot[comp[rows, cols]]
 
 
 def _segments(plan: GroundPlan, rows: np.ndarray, cols: np.ndarray, shape) -> tuple:

@@ -36,7 +36,7 @@ STANDING_HEIGHT = 0.3
 DEPTH_RATIO = (0.82, 1.08)
 RAISED_RATIO = 0.955
 _STEP = 2  # image subsampling of the point cloud (pixels)
-FOOT_REACH = 0.3  # metres: how near a shadow's end must come to a caster's foot
+FOOT_REACH = 1.0  # metres: how near a shadow must come to a caster's foot (the ground nearer is left out: NEAR_STANDING)
 
 
 @dataclass(frozen=True, eq=False)

@@ -88,8 +88,17 @@ def measure(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera, l
                    lit_rgb, shadow_rgb, lit_share, edges.area), plan, edges
 
 
+#: metres of edge whose chains reach a caster's foot that make those the ones the directions are
+#: read from: a vertical caster's shadow starts at its foot and runs along the sun's azimuth; a
+#: roof line's or a car side's runs along the street, away from any foot
+MIN_ANCHORED = 0.5
+
+
 def _peaks(edges: ShadowEdges, counted: np.ndarray) -> tuple:
-    """The strongest directions of the counted edges: ((azimuth mod 180, metres), ...)."""
+    """The strongest directions of the counted edges (of those reaching a caster's foot, where
+    there are :data:`MIN_ANCHORED` metres of them): ((azimuth mod 180, metres), ...)."""
+    if (counted & edges.anchored).sum() * CELL >= MIN_ANCHORED:
+        counted = counted & edges.anchored
     if not counted.any():
         return ()
     h = np.bincount(np.round(edges.along[counted]).astype(np.int64) % 180, minlength=180).astype(np.float64)
@@ -179,34 +188,48 @@ DEFAULT_ELEVATION = 45.0
 
 
 def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
-    """The sun's (azimuth, elevation, info) along the edges' directions: each peak azimuth and
-    its half turn, within 6 degrees, at :data:`ELEVATIONS`, scored by how the casters in view
-    throw their shadows onto dark ground there (``casters``: :class:`~.casters._CasterCue` or
-    None); without casters, or where none agrees, by ``evidence(az, el) -> (score, info)`` (the
+    """The sun's (azimuth, elevation, info) along the edges' directions: for each peak azimuth
+    (and its half turn, unless the segments tell which), within 6 degrees, at
+    :data:`ELEVATIONS`, how the casters in view throw their shadows onto dark ground there
+    (``casters``: :class:`~.casters._CasterCue` or None). The strongest peak is the sun's unless
+    the casters agree clearly better (by :data:`PEAK_PREFERENCE`) with another; along it the
+    casters' best direction, or where none agrees, ``evidence(az, el) -> (score, info)`` (the
     shading pairs and the predicted shadows) at :data:`DEFAULT_ELEVATION`. ``info`` is
     evidence's at the chosen direction, with the casters' agreement."""
-    az, el = [], []
+    per_peak = []
     for phi, _, side in ps.azimuths:
+        az, el = [], []
         for base in ((phi, phi + 180.0) if side == 0 else ((phi,) if side > 0 else (phi + 180.0,))):
             for d in (-6.0, -3.0, 0.0, 3.0, 6.0):
                 for e in ELEVATIONS:
                     az.append((base + d) % 360.0)
                     el.append(e)
-    az_a, el_a = np.array(az), np.array(el)
-    agreement = 0.0
-    best = None
-    if casters is not None and len(az_a):
-        agree, dark, _ = casters.score(az_a, el_a)
-        i = int(np.argmax(agree))
-        if agree[i] > 0 and dark[i] >= 10:
-            best, agreement = (float(az_a[i]), float(el_a[i])), float(agree[i])
-    if best is None:
-        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION) for phi, _, side in ps.azimuths[:1]
+        best = (0.0, None)
+        if casters is not None:
+            agree, dark, _ = casters.score(np.array(az), np.array(el))
+            i = int(np.argmax(agree))
+            if agree[i] > 0 and dark[i] >= 10:
+                best = (float(agree[i]), (float(az[i]), float(el[i])))
+        per_peak.append((phi, side, best))
+    if not per_peak:
+        return 0.0, DEFAULT_ELEVATION, dict(evidence(0.0, DEFAULT_ELEVATION)[1], caster_agreement=0.0)
+    chosen = per_peak[0]
+    for other in per_peak[1:]:
+        if other[2][0] > PEAK_PREFERENCE * max(chosen[2][0], 1e-9) and other[2][0] > 0.01:
+            chosen = other
+    phi, side, (agreement, found) = chosen
+    if found is None:
+        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION)
                  for h in ((0.0, 180.0) if side == 0 else ((0.0,) if side > 0 else (180.0,)))]
-        best = max(tries, key=lambda t: evidence(*t)[0]) if tries else (0.0, DEFAULT_ELEVATION)
-    info = dict(evidence(*best)[1])
+        found = max(tries, key=lambda t: evidence(*t)[0])
+    info = dict(evidence(*found)[1])
     info["caster_agreement"] = agreement
-    return best[0], best[1], info
+    return found[0], found[1], info
+
+
+#: another peak of the edges' directions is the sun's when the casters agree this much better
+#: with it than with the strongest
+PEAK_PREFERENCE = 2.0
 
 
 def strength(ps: PlanSun) -> float:
