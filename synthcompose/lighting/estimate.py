@@ -27,15 +27,16 @@ UNCONFIRMED_STRENGTH = 0.3
 
 
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
-                      work_width: int = 700, labelled: bool = True) -> LightEstimate:
+                      work_width: int = 700, labelled: bool = True, complete: bool = True) -> LightEstimate:
     """Estimate the light of one photo.
 
     rgb (H, W, 3) uint8 sRGB; label_ids (H, W) uint8 Cityscapes ids (or, ``labelled`` False,
     the surfaces found from the geometry: completed here with the level ground and what stands
     on it, :func:`~.plan.completed_labels`); depth (H, W) float metres, inf where unknown;
-    ``camera`` the frame's camera. Deterministic: the same inputs give the same estimate.
+    ``camera`` the frame's camera; ``complete`` False: the caller completed them already.
+    Deterministic: the same inputs give the same estimate.
     """
-    completed = label_ids if labelled else completed_labels(label_ids, depth, camera)
+    completed = label_ids if labelled or not complete else completed_labels(label_ids, depth, camera)
     smooth, sigma_d = smoothing_for(depth, label_ids, camera)
     g = _grid(rgb, label_ids, depth, camera, work_width, smooth)
     occ = _Occluders.build(g, label_ids, depth, camera)

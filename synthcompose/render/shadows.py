@@ -18,8 +18,8 @@ from .transforms import TEXTURE_FROM_CLIP, gl_mat4, look_at, ortho
 from .values import Lighting, RenderObject
 
 #: texels across the square of the ground planes' sky map (over the light views' 2 * half metres:
-#: 2 cm a texel for a car alone, 8 cm for objects 20 m apart)
-GROUND_SKY_SIZE = 512
+#: 4 cm a texel for a car alone, 16 cm for objects 20 m apart; read through a 25 cm disc)
+GROUND_SKY_SIZE = 256
 
 
 def light_matrices(objects: Sequence[RenderObject], lighting: Lighting) -> list:
