@@ -1,7 +1,7 @@
 """Cost per image set in CPU-seconds (all threads, user + system), next to the PNG codec's own.
 
     python benchmarks/bench_cost.py [--count 12] [--size 2048x1024] [--workers 1,2] [--scale 10,100]
-                                    [--real /path/to/cityscapes]
+                                    [--real /path/to/cityscapes] [--cast]
 
 In one run, on generated image sets that measure like real ones (cached under out/bench/; one
 car each) and, with --real, on a real Cityscapes root:
@@ -15,7 +15,16 @@ car each) and, with --real, on a real Cityscapes root:
   spent while it ran;
 * for each worker count: wall time per set, wall against CPU / cores (the cores kept busy:
   1.0 is perfect), peak RSS per worker;
-* with --scale, CPU and wall per set and peak RSS for each batch size (linear: flat per set).
+* with --scale, CPU and wall per set and peak RSS for each batch size (linear: flat per set);
+* with --cars, instead of all that: the batch's CPU-seconds per set with each of the cars named
+  (one object per set, the same sets and seed), run in turn --repeat times, medians, and their
+  ratio to the first car's: what a model costs against another, e.g.
+  ``--cars current=assets/models/openmaterial_car/vehicle_example.gltf@4.4:+y:+x,audi=assets/cast/vehicles/chrono-audi/audi.glb@4.88``
+
+With --cast, only the cast's cost: the demo's objects from before the cast (a roadster, a toy
+truck, a mannequin, the built-in stop sign) against ``"cast": "street"``, and the built-in stop
+sign against the cast's German signs (``cast:traffic sign``); 2 objects per set, one worker,
+the batches in turn twice; CPU-seconds per set and the ratios (issue 28: at most 1.15).
 
 The machine, its core count and the date are printed with the table. Never commit outputs made
 from real frames.
@@ -33,6 +42,7 @@ import sys
 import tempfile
 import time
 from contextlib import contextmanager
+from statistics import median
 from pathlib import Path
 
 import cv2
@@ -83,16 +93,20 @@ def codec_cpu(root: Path, count: int) -> float:
         cv2.setNumThreads(-1)
 
 
-def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, **extra) -> Path:
-    """A manifest of one car per set (``objects``) over ``data``; the left view alone unless
-    ``extra`` says otherwise (the codec's figure counts the left view's files: eval_stereo.py
-    measures what the right view adds)."""
+def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, specs: list | None = None,
+                 cars: list[dict] | None = None, **extra) -> Path:
+    """A manifest of one car per set (``objects``; ``specs``: other manifest objects, [] none:
+    a ``cast`` in ``extra``; ``cars``: the same as ``specs``, the cars to compare) over ``data``;
+    the left view alone unless ``extra`` says otherwise (the codec's figure counts the left view's
+    files: eval_stereo.py measures what the right view adds)."""
     extra = {"render": {"right_view": False}} | extra
     path = folder / "bench.json"
     splits = sorted({i.split for i in find_image_sets(data)})
+    specs = cars or specs
+    specs = [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}] if specs is None else specs
     path.write_text(json.dumps({
-        "dataset": str(data), "output": str(out), "seed": 1, "splits": splits, "objects_per_image": objects,
-        "objects": [{"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}}]} | extra))
+        "dataset": str(data), "output": str(out), "seed": 1, "splits": splits, "objects_per_image": objects}
+        | ({"objects": specs} if specs else {}) | extra))
     return path
 
 
@@ -162,6 +176,35 @@ def stage_cpu(data: Path, count: int, objects: int = 1, **extra) -> tuple[dict[s
     return {k: v / n for k, v in totals.items()}, n
 
 
+#: the demo's objects before the cast (a roadster, a toy truck, a mannequin, the built-in stop sign)
+MODELS = [
+    {"name": "car", "model": CAR, "class": "car", "size": {"length": 4.4}, "weight": 3},
+    {"name": "truck", "model": str(ROOT / "assets/models/kenney_vehicles/vehicle-truck-red.glb"), "class": "truck",
+     "size": {"width": 2.5}, "forward": "+z"},
+    {"name": "person", "model": str(ROOT / "assets/models/openmaterial_human/human_example.gltf"), "class": "person",
+     "size": {"height": 1.75}},
+    {"name": "stop sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5}},
+]
+
+
+def compare_cast(name: str, data: Path, count: int, objects: int = 2, repeat: int = 2) -> None:
+    """CPU-seconds per image set of the demo's old objects and of the street cast, and of the
+    built-in stop sign and the cast's German signs: the same number of objects per set, one
+    worker, the batches in turn ``repeat`` times."""
+    configs = {"models": {"specs": MODELS}, "street cast": {"specs": [], "cast": "street"},
+               "stop sign": {"specs": MODELS[-1:]}, "cast signs": {"specs": [{"model": "cast:traffic sign"}]}}
+    runs: dict[str, list[float]] = {label: [] for label in configs}
+    for _ in range(repeat):
+        for label, extra in configs.items():
+            r = run_batch(data, 1, count, objects=objects, **extra)
+            runs[label].append(r["cpu_s"] / r["sets"])
+    print(f"\n== {name}: the cast's cost, {count} image sets, {objects} objects each, {repeat} runs in turn")
+    for label, v in runs.items():
+        print(f"  {label:<12} CPU-s per image set " + ", ".join(f"{x:.3f}" for x in v) + f"  (median {median(v):.3f})")
+    for new, old in (("street cast", "models"), ("cast signs", "stop sign")):
+        print(f"  {new} / {old}: {median(runs[new]) / median(runs[old]):.3f} (target <= 1.15)")
+
+
 def report(name: str, data: Path, count: int, workers: list[int], scale: list[int]) -> None:
     cores = os.cpu_count() or 1
     codec = codec_cpu(data, count)
@@ -190,6 +233,32 @@ def report(name: str, data: Path, count: int, workers: list[int], scale: list[in
               f"peak RSS {r['rss_self_mb']:.0f} MB")
 
 
+def car_object(spec: str) -> dict:
+    """A manifest object from NAME=PATH@LENGTH[:UP:FORWARD] (glTF axes by default)."""
+    name, rest = spec.split("=", 1)
+    path, size = rest.rsplit("@", 1)
+    length, up, forward = (size.split(":") + ["+y", "+x"])[:3]
+    return {"name": name, "model": str((ROOT / path) if not Path(path).is_absolute() else path), "class": "car",
+            "size": {"length": float(length)}, "up": up, "forward": forward}
+
+
+def compare_cars(name: str, data: Path, count: int, cars: list[dict], repeat: int) -> None:
+    """The batch's CPU-seconds per set with each car alone, the cars run in turn ``repeat`` times
+    (the machine's load drifts alike for all), medians and ratios to the first."""
+    import statistics
+
+    runs = {c["name"]: [] for c in cars}
+    for _ in range(repeat):
+        for car in cars:
+            r = run_batch(data, 1, count, cars=[car])
+            runs[car["name"]].append(r["cpu_s"] / r["sets"])
+    first = statistics.median(runs[cars[0]["name"]])
+    print(f"{name}: {count} sets, 1 worker, CPU-s per set (median of {repeat}), ratio to {cars[0]['name']}")
+    for car in cars:
+        med = statistics.median(runs[car["name"]])
+        print(f"  {car['name']:>12}: {med:6.2f} CPU-s per set  x{med / first:.3f}  runs {[round(v, 2) for v in runs[car['name']]]}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--count", type=int, default=12)
@@ -197,12 +266,27 @@ def main() -> int:
     ap.add_argument("--workers", default="1,2")
     ap.add_argument("--scale", default="", help="batch sizes for the linearity check, e.g. 10,100")
     ap.add_argument("--real", type=Path, help="a Cityscapes root (real frames) to measure too")
+    ap.add_argument("--cast", action="store_true",
+                    help="only the cast's cost: the demo's old objects against the street cast (docs/cast.md)")
+    ap.add_argument("--cars", default="", help="NAME=PATH@LENGTH[:UP:FORWARD],...: compare what each costs")
+    ap.add_argument("--repeat", type=int, default=3, help="--cars: runs of each car, in turn")
     args = ap.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
+    if args.cars:
+        cars = [car_object(spec) for spec in args.cars.split(",")]
+        compare_cars("generated", dataset(args.count, width, height), args.count, cars, args.repeat)
+        if args.real is not None:
+            compare_cars("real", args.real, min(args.count, len(find_image_sets(args.real))), cars, args.repeat)
+        return 0
     scale = [int(v) for v in args.scale.split(",") if v]
     workers = [int(v) for v in args.workers.split(",")]
     print(f"{platform.node()}: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"{datetime.date.today()}; llvmpipe unless a GPU is named by EGL")
+    if args.cast:
+        if args.real is not None:
+            compare_cast("real", args.real, min(args.count, len(find_image_sets(args.real))))
+        compare_cast("generated", dataset(args.count, width, height), args.count)
+        return 0
     report("generated", dataset(max([args.count] + scale), width, height), args.count, workers, scale)
     if args.real is not None:
         report("real", args.real, min(args.count, len(find_image_sets(args.real))), workers, [])

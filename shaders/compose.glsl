@@ -16,7 +16,7 @@ uniform sampler2D u_ir;            // plane alone, linear
 uniform sampler2D u_alpha;         // object coverage
 uniform sampler2D u_odepth;        // coverage-weighted object depth
 uniform sampler2D u_plane;         // (coverage-weighted plane depth, plane coverage)
-uniform usampler2D u_id;           // object index at the pixel centre, 0 = none
+uniform usampler2D u_id;           // object index at the pixel centre (0 = none) | part label << 8
 uniform sampler2D u_id_depth;      // object depth at the pixel centre
 uniform sampler2D u_scene_depth;   // real depth, +inf where unknown
 uniform usampler2D u_labels;       // real label ids
@@ -62,10 +62,23 @@ vec2 tone_at(ivec2 q) {
     ivec2 hi = textureSize(u_id, 0) - 1;
     for (int i = 0; i < 9; ++i) {
         ivec2 r = clamp(q + ivec2((i + 4) % 3 - 1, (i + 4) / 3 % 3 - 1), ivec2(0), hi);
-        uint id = texelFetch(u_id, r, 0).r;
+        uint id = texelFetch(u_id, r, 0).r & 255u;
         if (id > 0u) return u_tone[id];
     }
     return vec2(1.0);
+}
+
+// the share of the photo that must show through an object's panes for its disparity to be kept
+const float SEE_THROUGH = 0.1;
+
+// Pixel q and its four neighbours all show object id (pixel centres): not at its silhouette's edge.
+bool inside(ivec2 q, uint id) {
+    ivec2 hi = textureSize(u_id, 0) - 1;
+    for (int i = 0; i < 4; ++i) {
+        ivec2 r = clamp(q + ivec2(i == 0 ? 1 : (i == 1 ? -1 : 0), i == 2 ? 1 : (i == 3 ? -1 : 0)), ivec2(0), hi);
+        if (texelFetch(u_id, r, 0).r != id) return false;
+    }
+    return true;
 }
 
 // What the compose needs at pixel q, fetched once: the photo R (linear), the passes, the real
@@ -194,7 +207,9 @@ void main() {
     }
     out_rgb = vec4(srgb, 1.0);
 
-    uint id = texelFetch(u_id, p, 0).r;
+    uint raw = texelFetch(u_id, p, 0).r;
+    uint id = raw & 255u;
+    uint part = raw >> 8u;  // a part labelled apart from its object (a sign's pole): its class, no instance
     out_label = x.label;
     out_instance = texelFetch(u_instances, p, 0).r;
     out_disparity = texelFetch(u_disparity, p, 0).r;
@@ -202,10 +217,17 @@ void main() {
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
         if (in_front(od, x.sd, x.front, x.ground)) {
-            out_label = u_class[id];
-            out_instance = u_instance[id];
+            out_label = part > 0u ? part : u_class[id];
+            out_instance = part > 0u ? part : u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
             out_visible = id;
+            // through the object's panes (inside its silhouette, not at its edge) the photo behind
+            // shows: a camera, and a stereo matcher, see through clear glass to it, so the
+            // disparity is the photo's there (the labels stay the object's: Cityscapes labels a
+            // car's windows as the car); behind a pane with the interior behind it (a = 1), the
+            // object's
+            if (x.a < 1.0 - SEE_THROUGH && inside(p, id))
+                out_disparity = texelFetch(u_disparity, p, 0).r;
         }
     }
 }

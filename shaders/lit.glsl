@@ -4,7 +4,12 @@
 // The fragment shader comes in variants (render.py compiles each one it draws with), so that
 // each runs only its own code: Mesa's llvmpipe runs both sides of a branch on a uniform.
 //   PLANE       a ground plane; NO_SHADOWS with it: the plane alone (Ir), nothing casts shadows
-//   otherwise   an object part; TEXTURE: it has a base colour texture, NORMAL_MAP: a normal map
+//   otherwise   an object part; TEXTURE: it has a base colour texture, NORMAL_MAP: a normal map;
+//               GLASS: a pane, drawn after the opaque parts and blended over them (premultiplied,
+//               ONE / ONE_MINUS_SRC_ALPHA on every target): it adds what it reflects and keeps of
+//               what is behind it (the interior, far panes, the plane, nothing) the share it lets
+//               through, so that coverage, depth and colour stay consistent for the compose
+//               (a = 1 - what reaches the photo behind the object)
 #if defined VERTEX_SHADER
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -87,11 +92,14 @@ uniform sampler2D u_env;        // the full photo (sRGB texture: reads linear), 
 uniform mat4 u_env_view;        // vehicle -> optical frame of the full camera
 uniform vec4 u_env_k;           // (fx / W, fy / H, u0 / W, v0 / H) of the full camera
 uniform float u_env_lods;       // mip levels of u_env
+uniform float u_transmission;   // GLASS: the share of light the pane's material lets through
+// The targets hold 1 to 4 channels; every output is a vec4 so that its alpha is the one the
+// glass blend uses on that target (only the target's own channels are stored).
 layout(location = 0) out vec4 out_color;   // lit linear colour
-layout(location = 1) out float out_alpha;  // object coverage
-layout(location = 2) out float out_odepth; // object depth (0 on the plane)
-layout(location = 3) out vec2 out_plane;   // (plane depth, plane coverage)
-layout(location = 4) out vec4 out_object;  // (object colour, 1) on the object, 0 on the plane
+layout(location = 1) out vec4 out_alpha;   // object coverage
+layout(location = 2) out vec4 out_odepth;  // object depth times coverage (0 on the plane)
+layout(location = 3) out vec4 out_plane;   // (plane depth, plane coverage)
+layout(location = 4) out vec4 out_object;  // (object colour, coverage) on the object, 0 on the plane
 layout(location = 5) out vec4 out_key;     // the material's base colour factor (fill.glsl)
 
 const vec2 DISC[12] = vec2[](vec2(-0.326, -0.406), vec2(-0.840, -0.074), vec2(-0.696, 0.457),
@@ -235,9 +243,9 @@ void main() {
     vec3 sun_rgb = u_sun_rgb * sun_scale;
     vec3 color = albedo * (ambient + sun_rgb * ndl * sun_vis);
     out_color = vec4(color, 1.0);
-    out_alpha = 0.0;
-    out_odepth = 0.0;
-    out_plane = vec2(v_depth, 1.0);
+    out_alpha = vec4(0.0, 0.0, 0.0, 1.0);
+    out_odepth = vec4(0.0, 0.0, 0.0, 1.0);
+    out_plane = vec4(v_depth, 1.0, 0.0, 1.0);
     out_object = vec4(0.0);
     out_key = vec4(-1.0);
 #else
@@ -247,6 +255,35 @@ void main() {
     n = normal_from_map(n, dot(n, v_normal) < 0.0 ? -1.0 : 1.0);
     ndl = max(dot(n, u_sun_dir), 0.0);
 #endif
+    float roughness = clamp(v_material.y, 0.05, 1.0);
+    float sun_vis = sun_visibility(v_world);
+    vec3 sun_rgb = u_sun_rgb * u_sun_scale;
+    float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
+    vec3 r = reflect(-v, n);
+    vec3 env = environment(v_world, r, roughness) * occlusion;
+    float gloss = 1.0 - roughness;
+    vec3 h = normalize(u_sun_dir + v);
+    float shininess = mix(4.0, 512.0, gloss * gloss);
+    vec3 spec = sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
+#if defined GLASS
+    // a thin pane (n = 1.5, Schlick): each face reflects f, the two together 2f / (1 + f); of the
+    // rest the material lets u_transmission through and scatters the remainder in its own
+    // colour (a tinted lens, a dirty pane: alpha blending's share). Premultiplied: reflection and
+    // scattered light are added, 1 - cover of what is behind is kept (the blend), on colour,
+    // coverage and depth alike.
+    float f = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
+    float reflected = 2.0 * f / (1.0 + f);
+    vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * occlusion;
+    vec3 scattered = v_color.rgb * (ambient + sun_rgb * ndl * sun_vis);
+    float cover = 1.0 - (1.0 - reflected) * u_transmission;
+    vec3 color = reflected * (env * gloss + spec * gloss) + (1.0 - reflected) * (1.0 - u_transmission) * scattered;
+    out_color = vec4(color, cover);
+    out_alpha = vec4(cover, 0.0, 0.0, cover);
+    out_odepth = vec4(cover * v_depth, 0.0, 0.0, cover);
+    out_plane = vec4(0.0);  // the plane behind keeps what it had
+    out_object = vec4(color, cover);
+    out_key = v_color;
+#else
     vec3 albedo = v_color.rgb;
     for (int i = 0; i < u_recolour_n; ++i)  // this object's paint or clothes (appearance.py)
         if (all(lessThan(abs(v_color - u_recolour_key[i]), vec4(1e-3)))) albedo = u_recolour_rgb[i];
@@ -254,28 +291,19 @@ void main() {
     albedo *= srgb_to_linear(texture(u_texture, v_uv).rgb);
 #endif
     float metallic = v_material.x;
-    float roughness = clamp(v_material.y, 0.05, 1.0);
-    float sun_vis = sun_visibility(v_world);
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * occlusion;
-    vec3 sun_rgb = u_sun_rgb * u_sun_scale;
     vec3 diffuse = albedo * (1.0 - metallic) * (ambient + sun_rgb * ndl * sun_vis);
     // glossy part: Schlick Fresnel, sky/ground reflection and a Blinn-Phong sun highlight
     vec3 f0 = mix(vec3(0.04), albedo, metallic);
-    float ndv = clamp(dot(n, v), 0.0, 1.0);  // pow() of a negative base is undefined
     vec3 fresnel = f0 + (1.0 - f0) * pow(1.0 - ndv, 5.0);
-    vec3 r = reflect(-v, n);
-    vec3 env = environment(v_world, r, roughness) * occlusion;
-    float gloss = 1.0 - roughness;
-    vec3 h = normalize(u_sun_dir + v);
-    float shininess = mix(4.0, 512.0, gloss * gloss);
-    vec3 spec = sun_rgb * sun_vis * pow(max(dot(n, h), 0.0), shininess) * (shininess + 8.0) / 25.0 * ndl;
     vec3 color = diffuse + fresnel * (env * gloss + spec * gloss);
     out_color = vec4(color, 1.0);
-    out_alpha = 1.0;
-    out_odepth = v_depth;
-    out_plane = vec2(0.0);
+    out_alpha = vec4(1.0);
+    out_odepth = vec4(v_depth, 0.0, 0.0, 1.0);
+    out_plane = vec4(0.0);
     out_object = vec4(color, 1.0);
     out_key = v_color;
+#endif
 #endif
 }
 #endif

@@ -46,6 +46,7 @@ from .camera import Camera
 from .dataset import ImageSetId, read_polygons
 from .errors import InputError
 from .fileio import read_json, write_json
+from .labels import label_name
 from .placement import box_corners
 from .polygons import frame_polygons, mask_polygon
 from .record import ImageSetRecord, ObjectRecord, read_record
@@ -87,9 +88,13 @@ def polygons_document(source: Path | None, objects: Sequence[ObjectRecord], visi
                                  f"but the image is {w}x{h}")
     doc = dict(data) | {"objects": list(entries)}
     for obj in sorted(objects, key=lambda o: (o.instance_id, o.index)):
-        poly = mask_polygon(visible == obj.index)
-        if poly is not None:
-            doc["objects"].append({"label": obj.class_name, "polygon": poly})
+        seen = visible == obj.index
+        # the parts labelled apart from the object (a sign's pole) first, then the object
+        parts = sorted(set(np.unique(label_ids[seen]).tolist()) - {obj.label_id})
+        for lid, mask in [(p, seen & (label_ids == p)) for p in parts] + [(obj.label_id, seen & (label_ids == obj.label_id))]:
+            poly = mask_polygon(mask)
+            if poly is not None:
+                doc["objects"].append({"label": label_name(int(lid)), "polygon": poly})
     return doc
 
 

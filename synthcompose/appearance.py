@@ -3,11 +3,15 @@ and recorded, so that a dataset teaches a class, not one model's colour.
 
 A model's recolourable materials are found from its geometry and materials alone:
 
-* vehicles: the **paint** - the opaque, untextured, non-metallic material with the largest
-  surface among the glossy ones (roughness below :data:`PAINT_MAX_ROUGHNESS`: paint is clear
-  coated; tyres, trims and plastics are rough);
-* people: the **clothes** - the three opaque, untextured materials with the largest surface that
-  are not skin-coloured (top, trousers, a vest or jacket).
+* vehicles: the **paint** - the material named ``paint`` (the cast's vehicles name their
+  materials by role, docs/vehicles.md); none in a model whose body is a ``livery`` (a bus in
+  its operator's colours); in a model with neither, the opaque, untextured, non-metallic
+  material with the largest surface among the glossy ones (roughness below
+  :data:`PAINT_MAX_ROUGHNESS`: paint is clear coated; tyres, trims and plastics are rough);
+* people: the **clothes** - the materials named ``clothes_top``, ``clothes_bottom`` and ``shoes``
+  (the cast's people, docs/people.md; skin, hair, an inner layer keep their colours); in a model
+  without them, the three opaque, untextured materials with the largest surface that are not
+  skin-coloured (top, trousers, a vest or jacket).
 
 Paint is drawn from the share of car colours on European roads (white, grey, black and silver
 about four in five; then blue, red, and a few others - the paint makers' yearly popularity
@@ -49,10 +53,24 @@ CLOTHES = (
     ("red", 0.04, (0.25, 0.03, 0.03)),
     ("brown", 0.04, (0.08, 0.045, 0.025)),
 )
+#: (name, share, linear albedo) of shoes
+SHOES = (
+    ("black", 0.40, (0.02, 0.02, 0.022)),
+    ("brown", 0.18, (0.07, 0.04, 0.022)),
+    ("white", 0.20, (0.55, 0.55, 0.53)),
+    ("grey", 0.12, (0.12, 0.12, 0.125)),
+    ("navy", 0.10, (0.025, 0.03, 0.07)),
+)
+#: the people's recolourable materials, by name, and the palette each is drawn from
+NAMED_CLOTHES = (("clothes_top", CLOTHES), ("clothes_bottom", CLOTHES), ("shoes", SHOES))
 VEHICLES = ("car", "truck", "bus", "caravan", "trailer", "train", "motorcycle", "bicycle")
 PEOPLE = ("person", "rider")
 #: paint is clear coated: glossier than this (glTF roughness)
 PAINT_MAX_ROUGHNESS = 0.4
+#: the material name that marks a vehicle's paint (docs/vehicles.md)
+PAINT_NAME = "paint"
+#: ... and a body in fixed colours (a bus's livery): without a paint, nothing is recoloured
+LIVERY_NAME = "livery"
 
 
 @dataclass(frozen=True)
@@ -104,18 +122,54 @@ def _skin(rgb) -> bool:
 
 
 _FOUND: dict[tuple[str, str], list] = {}
+#: models whose recolourable materials are remembered (a person posed per object is a new model)
+FOUND_KEPT = 256
+
+
+def _named(model: Model) -> list[tuple[tuple[float, float, float, float], tuple]]:
+    """(material key, palette) of the people's named clothes materials in ``model``, in
+    :data:`NAMED_CLOTHES`' order (none for a model without them)."""
+    out = []
+    for name, palette in NAMED_CLOTHES:
+        part = next((p for p in model.parts if p.name == name and len(p.colors)), None)
+        if part is not None:
+            out.append((tuple(float(c) for c in np.round(part.colors[0], 4)), palette))
+    return out
 
 
 def recolourable(model: Model, class_name: str) -> list[tuple[float, float, float, float]]:
     """The material keys of ``model`` that vary for its class (module docstring); may be empty.
-    Found once per model and class."""
+    Found once per model and class (the :data:`FOUND_KEPT` latest)."""
     key = (model.key, class_name)
     if key not in _FOUND:
+        while len(_FOUND) >= FOUND_KEPT:
+            _FOUND.pop(next(iter(_FOUND)))
         _FOUND[key] = _recolourable(model, class_name)
     return list(_FOUND[key])
 
 
+def _named_paint(model: Model) -> list[tuple[float, float, float, float]]:
+    """The base colour factors of the parts whose material is named ``paint`` (most surface first)."""
+    keys: dict[tuple, float] = {}
+    for part in model.parts:
+        if part.name.strip().lower() != PAINT_NAME or len(part.indices) == 0 or part.transmission > 0:
+            continue
+        tri = part.positions[part.indices]
+        area = float(0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum())
+        key = tuple(float(v) for v in np.round(part.colors[part.indices[0, 0]], 4))
+        keys[key] = keys.get(key, 0.0) + area
+    return sorted(keys, key=lambda k: -keys[k])
+
+
 def _recolourable(model: Model, class_name: str) -> list[tuple[float, float, float, float]]:
+    if class_name in VEHICLES:
+        named = _named_paint(model)
+        if named:
+            return named[:1]
+        if any(part.name.strip().lower() == LIVERY_NAME for part in model.parts):
+            return []
+    if class_name in PEOPLE and _named(model):
+        return [k for k, _ in _named(model)]
     mats = [m for m in _materials(model) if m[0][3] >= 0.99 and not m[4] and m[2] < 0.5]
     if class_name in VEHICLES:
         glossy = [m for m in mats if m[3] < PAINT_MAX_ROUGHNESS]
@@ -139,10 +193,12 @@ def draw_appearance(model: Model, class_name: str, rng: np.random.Generator) -> 
     if not keys:
         return Appearance(plate=_plate(model, class_name, rng))
     palette = PAINTS if class_name in VEHICLES else CLOTHES
-    shares = np.array([p[1] for p in palette])
+    palettes = dict(_named(model)) if class_name in PEOPLE else {}
     pairs, names = [], []
     for key in keys:
-        name, _, rgb = palette[int(rng.choice(len(palette), p=shares / shares.sum()))]
+        pal = palettes.get(key, palette)
+        shares = np.array([p[1] for p in pal])
+        name, _, rgb = pal[int(rng.choice(len(pal), p=shares / shares.sum()))]
         # the same paint varies a little from car to car (age, make, dirt)
         rgb = np.clip(np.asarray(rgb) * float(rng.uniform(0.85, 1.15)), 0.0, 0.9)
         pairs.append((key, tuple(float(c) for c in rgb)))

@@ -27,15 +27,17 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .dataset import ImageSetId, find_image_sets, input_fingerprint
+from .cast import preload
+from .dataset import ImageSetId, input_fingerprint
 from .errors import ManifestError, SynthComposeError
 from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import BatchError, _in_process, _process_pool, _ray_engine
+from .engines import BatchError, _in_process, _process_pool, _ray_engine, worker_count
 from .pipeline import STAGES, Outcome
 from .record import DONE, NO_PLACEMENT, read_record
+from .selection import select_image_sets
 from .writer import discard_outputs, output_paths
 
 log = logging.getLogger("synthcompose")
@@ -105,7 +107,7 @@ class Summary:
 def select(manifest: Manifest) -> tuple[list[ImageSetId], np.ndarray, dict[str, int] | None]:
     """(image sets to consider, object choice probabilities, class counts or None)."""
     m = manifest
-    ids = find_image_sets(m.dataset, m.splits, m.cities, m.frames)
+    ids = select_image_sets(m)  # a split, city or frame that matches nothing: refused, named
     ids = ids[: m.limit] if m.limit else ids
     counts = None
     if m.object_choice == "balance":
@@ -176,7 +178,10 @@ def preflight(manifest: Manifest) -> None:
     """Load every model once before any work: a bad model file stops the batch at the start
     (with the file named) instead of failing every image set."""
     for spec in manifest.objects:
-        load_model(spec.model, spec.size, spec.up, spec.forward)
+        if spec.cast:
+            preload(spec.cast)
+        else:
+            load_model(spec.model, spec.size, spec.up, spec.forward)
 
 
 class OutputLock:
@@ -187,6 +192,8 @@ class OutputLock:
         self._fd: int | None = None
 
     def __enter__(self) -> "OutputLock":
+        if self.path.parent.exists() and not self.path.parent.is_dir():
+            raise BatchError(f"{self.path.parent}: output root is a file, not a folder; give a folder")
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -244,12 +251,16 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
     from tqdm.contrib.logging import logging_redirect_tqdm
 
     t0 = time.perf_counter()
+    if not use_ray:  # 0: one per core; no more than the cores and the memory allow
+        workers, note = worker_count(workers)
+        if note:
+            log.info("%s", note)
     engine = "ray" if use_ray else ("local" if workers <= 1 else "process")
     summary = Summary(workers=max(workers, 1), engine=engine)
     refuse_overlap(manifest)  # inputs are never written, whatever the manifest says
+    preflight(manifest)  # a bad model or a selector that selects nothing: refused before the
+    ids, weights, summary.class_counts = select(manifest)  # output root is even made
     with OutputLock(manifest.output):
-        preflight(manifest)
-        ids, weights, summary.class_counts = select(manifest)
         stale = remove_partials(manifest.output, ids)
         if stale:
             log.info("removed %d partial files left by an interrupted run", stale)

@@ -51,6 +51,28 @@ def _rot_z(a: float) -> np.ndarray:
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]], float)
 
 
+#: the range each camera field must lie in (low, high, unit): focal lengths and the principal
+#: point in image widths (fx, u0) or heights (fy, v0), the rest as given. Cityscapes: fx ~ 1.1
+#: widths, u0 ~ 0.53 widths, baseline 0.21 m, the camera 1.2-1.7 m up, angles of a few degrees
+CAMERA_LIMITS: dict[str, tuple[float, float, str]] = {
+    "fx": (0.05, 100.0, "px"), "fy": (0.05, 100.0, "px"), "u0": (-10.0, 10.0, "px"), "v0": (-10.0, 10.0, "px"),
+    "baseline": (0.0, 10.0, "m"), "x": (-100.0, 100.0, "m"), "y": (-100.0, 100.0, "m"), "z": (-100.0, 100.0, "m"),
+    "yaw": (-2 * math.pi, 2 * math.pi, "rad"), "pitch": (-2 * math.pi, 2 * math.pi, "rad"),
+    "roll": (-2 * math.pi, 2 * math.pi, "rad"),
+}
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float, or None (a bool, a string, an integer beyond a float)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        value = float(value)
+    except OverflowError:
+        return None
+    return value if math.isfinite(value) else None
+
+
 @dataclass(frozen=True)
 class Camera:
     """A calibrated Cityscapes camera for one frame of size ``width`` x ``height`` pixels."""
@@ -72,7 +94,8 @@ class Camera:
     # ----------------------------------------------------------------- reading
     @classmethod
     def from_dict(cls, data: Any, width: int, height: int, path: str | Path = "<camera>") -> "Camera":
-        """Build from the parsed content of a Cityscapes camera JSON, checking every field."""
+        """Build from the parsed content of a Cityscapes camera JSON, checking every field: a
+        number (not a string), finite, within :data:`CAMERA_LIMITS`."""
         if not isinstance(data, dict):
             raise InputError(path, "camera JSON must be an object with 'intrinsic' and 'extrinsic'")
         values: dict[str, float] = {}
@@ -84,13 +107,21 @@ class Camera:
             for key in keys:
                 if key not in sub:
                     raise InputError(path, f"camera JSON '{block}' has no '{key}'")
-                val = sub[key]
-                if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-                    raise InputError(path, f"camera JSON '{block}.{key}' must be a finite number, found {val!r}")
-                values[key] = float(val)
+                val = _number(sub[key])
+                if val is None:
+                    found = repr(sub[key]) if not isinstance(sub[key], (dict, list)) else type(sub[key]).__name__
+                    raise InputError(path, f"camera JSON '{block}.{key}' must be a finite number, found "
+                                           f"{found[:40]}" + (" (a string)" if isinstance(sub[key], str) else ""))
+                values[key] = val
         for key in ("fx", "fy", "baseline"):
             if values[key] <= 0:
                 raise InputError(path, f"camera JSON '{key}' must be positive, found {values[key]!r}")
+        size = {"fx": width, "fy": height, "u0": width, "v0": height}
+        for key, (lo, hi, unit) in CAMERA_LIMITS.items():
+            scale = size.get(key, 1)
+            if not lo * scale <= values[key] <= hi * scale:
+                raise InputError(path, f"camera JSON '{key}' is {values[key]:g} {unit}, outside "
+                                       f"[{lo * scale:g}, {hi * scale:g}]: not a street camera's calibration")
         return cls(width=int(width), height=int(height), **values)
 
     @classmethod

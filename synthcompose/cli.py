@@ -35,7 +35,7 @@ def _batch(args: argparse.Namespace) -> int:
 def _make_sample(args: argparse.Namespace) -> int:
     from .synthetic import make_sample
 
-    width, height = (int(v) for v in args.size.lower().split("x"))
+    width, height = args.size
     ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed,
                       stereo=args.stereo, photo=args.photo, right=not args.no_right, light=args.light)
     print(f"wrote {len(ids)} image sets to {args.out}")
@@ -116,6 +116,39 @@ def _count(minimum: int):
     return parse
 
 
+#: make-sample's image sizes: each side within these pixels, and at most this many pixels (the
+#: generator holds a few dozen float arrays of the frame: 16 Mpx takes ~2.5 GB; Cityscapes is 2 Mpx)
+SAMPLE_SIDE = (64, 8192)
+SAMPLE_PIXELS = 16 << 20
+
+
+def _size(text: str) -> tuple[int, int]:
+    """argparse type: ``WIDTHxHEIGHT`` in pixels, each side and the area within the limits above."""
+    parts = text.strip().lower().replace("\u00d7", "x").split("x")
+    if len(parts) != 2 or not all(p.strip().isascii() and p.strip().isdigit() for p in parts):
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT (two whole numbers, e.g. 2048x1024)")
+    width, height = (int(p) for p in parts)
+    lo, hi = SAMPLE_SIDE
+    if not (lo <= width <= hi and lo // 2 <= height <= hi):
+        raise argparse.ArgumentTypeError(f"{width}x{height}: the width must be {lo} to {hi} pixels and the height "
+                                         f"{lo // 2} to {hi}")
+    if width * height > SAMPLE_PIXELS:
+        raise argparse.ArgumentTypeError(f"{width}x{height} is {width * height} pixels, more than the {SAMPLE_PIXELS} "
+                                         "a sample may have (Cityscapes' frames have 2097152)")
+    return width, height
+
+
+def _share(text: str) -> float:
+    """argparse type: a finite number of at least 0 (GPUs per Ray actor)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= value <= 1e6:
+        raise argparse.ArgumentTypeError(f"{text} is not a number from 0 up")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
@@ -134,19 +167,23 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--limit", type=_count(1), help="process at most this many image sets (1 or more)")
     b.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
     b.add_argument("--workers", type=_count(0), default=1,
-                   help="worker processes, each with its own GL context (with --ray: actors; 0 = one per CPU)")
+                   help="worker processes, each with its own GL context; 0 = one per core; more than the cores "
+                        "and the memory (about 1 GiB each) allow are capped, with a message (with --ray: actors; "
+                        "0 = one per Ray CPU)")
     b.add_argument("--gpus", type=_count(0), default=0, help="spread local workers over this many GPUs (EGL devices)")
     b.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run as Ray actors: on a local Ray instance, or the cluster at ADDRESS "
                         "(needs pip install 'synthcompose[ray]')")
-    b.add_argument("--ray-gpus", type=float, default=0.0, help="GPUs per Ray actor (default 0)")
+    b.add_argument("--ray-gpus", type=_share, default=0.0, help="GPUs per Ray actor (default 0)")
     b.add_argument("--no-resume", action="store_true", help="redo image sets an earlier run completed")
     b.set_defaults(func=_batch)
     s = command("make-sample", help="generate synthetic image sets in Cityscapes format")
     s.add_argument("out", help="Cityscapes root to write")
     s.add_argument("--count", type=_count(1), default=3)
-    s.add_argument("--size", default="2048x1024", help="WIDTHxHEIGHT")
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--size", type=_size, default=(2048, 1024), metavar="WIDTHxHEIGHT",
+                   help=f"pixels (default 2048x1024; sides {SAMPLE_SIDE[0]} to {SAMPLE_SIDE[1]}, "
+                        f"at most {SAMPLE_PIXELS >> 20} Mpx)")
+    s.add_argument("--seed", type=_count(0), default=0)
     s.add_argument("--stereo", choices=("realistic", "exact"), default="realistic",
                    help="disparity as semi-global matching measures it (default) or the exact one")
     s.add_argument("--photo", choices=("realistic", "clean"), default="realistic",
@@ -177,18 +214,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: the exit status of a run stopped by Ctrl-C (SIGINT) or SIGTERM alike: 128 + SIGINT, the
+#: shell's status for Ctrl-C; one status for both, so that a script tests one number
+INTERRUPTED = 130
+
+
+def _stop_on_sigterm(signum, frame) -> None:
+    """SIGTERM stops a run as Ctrl-C does: the same unwinding (workers told to stop, the lock
+    released, no partial file left under a final name), the same line, the same status."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if getattr(args, "verbose", False) else logging.INFO,
                         format="%(levelname)s %(message)s", stream=sys.stderr)
+    import signal
+    import threading
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    before = signal.signal(signal.SIGTERM, _stop_on_sigterm) if main_thread else None
     try:
         return args.func(args)
     except SynthComposeError as exc:
         print(f"synthcompose: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # Ctrl-C: one line, no traceback; a rerun resumes
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: one line, no traceback; a rerun resumes
         print("synthcompose: interrupted (a rerun resumes where this one stopped)", file=sys.stderr)
-        return 130
+        return INTERRUPTED
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, before)
 
 
 if __name__ == "__main__":

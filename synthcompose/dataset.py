@@ -12,7 +12,10 @@ Layout (cityscapesScripts ``csHelpers``: file names are ``city_seq_frame_type.ex
 """
 from __future__ import annotations
 
+import os
 import re
+import stat
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,7 +28,9 @@ from .errors import InputError
 from .fileio import decode_disparity, map_threads, read_json, read_png
 from .labels import KNOWN_IDS
 
-_NAME = re.compile(r"^(?P<city>[A-Za-z0-9-]+)_(?P<seq>\d+)_(?P<frame>\d+)_leftImg8bit\.png$")
+#: ``city_seq_frame_leftImg8bit.png``: a city is any name without "_" (spaces and letters of any
+#: script too: "bad homburg", "münchen"), the sequence and frame numbers are ASCII digits
+_NAME = re.compile(r"^(?P<city>[^_/]+)_(?P<seq>[0-9]+)_(?P<frame>[0-9]+)_leftImg8bit\.png$")
 
 
 @dataclass(frozen=True, order=True)
@@ -73,30 +78,86 @@ def parse_name(split: str, filename: str) -> ImageSetId | None:
     return ImageSetId(split, m["city"], m["seq"], m["frame"])
 
 
-def find_image_sets(root: Path, splits=None, cities=None, frames=None) -> list[ImageSetId]:
+def nfc(name: str) -> str:
+    """A folder or frame name in Unicode's composed form (NFC): names are compared so, and a
+    manifest's "münchen" selects a folder a Mac wrote as "mu" + combining diaeresis + "nchen"."""
+    return unicodedata.normalize("NFC", name)
+
+
+def list_folder(folder: Path) -> list[os.DirEntry]:
+    """The entries of a dataset folder, sorted by name, or an :class:`InputError` naming it when
+    it cannot be listed (no permission, a link loop, not a folder)."""
+    try:
+        with os.scandir(folder) as it:
+            return sorted(it, key=lambda e: e.name)
+    except OSError as exc:
+        raise InputError(folder, f"folder cannot be listed ({exc.strerror or exc})") from None
+
+
+def subfolders(folder: Path, wanted=None, skip_broken: bool = False) -> list[Path]:
+    """The folders in ``folder`` (links to folders too) whose NFC names are in ``wanted`` (all
+    when None). A wanted entry that is a link that cannot be followed (a loop, a link to
+    nothing) is an :class:`InputError` naming it, not a folder silently left out (``skip_broken``:
+    left out, for listings that only explain)."""
+    out = []
+    for entry in list_folder(folder):
+        if wanted is not None and nfc(entry.name) not in wanted:
+            continue
+        try:
+            os.stat(entry.path)  # follows links
+        except OSError as exc:
+            if skip_broken:
+                continue
+            raise InputError(entry.path, f"cannot be followed ({exc.strerror or exc})") from None
+        if entry.is_dir():
+            out.append(Path(entry.path))
+    return out
+
+
+def _folder(path: Path, what: str) -> None:
+    """An :class:`InputError` naming ``path`` unless it is a folder (links followed)."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(path, f"{what} is missing") from None
+    except OSError as exc:
+        raise InputError(path, f"{what} cannot be followed ({exc.strerror or exc})") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise InputError(path, f"{what} is not a folder")
+
+
+def find_image_sets(root: Path, splits=None, cities=None, frames=None, skip_broken: bool = False
+                    ) -> list[ImageSetId]:
     """Every image set under ``root/leftImg8bit/<split>/<city>/``, sorted.
 
     ``splits`` defaults to every split folder present; ``cities`` and ``frames``
-    (``city_seq_frame`` names) narrow the selection when given.
+    (``city_seq_frame`` names) narrow the selection when given (names compared in NFC). A
+    folder that cannot be listed is an :class:`InputError` naming it (never silently empty),
+    unless ``skip_broken`` (then it is left out: a listing that only explains a selection).
     """
     root = Path(root)
-    if not (root / "leftImg8bit").is_dir():
-        raise InputError(root / "leftImg8bit", "dataset root has no leftImg8bit folder")
+    _folder(root, "dataset root")
+    _folder(root / "leftImg8bit", "the dataset root's leftImg8bit folder (its photos)")
     if splits is None:
-        splits = sorted(p.name for p in (root / "leftImg8bit").iterdir() if p.is_dir())
+        splits = [p.name for p in subfolders(root / "leftImg8bit", skip_broken=skip_broken)]
+    city_set = None if cities is None else {nfc(c) for c in cities}
+    frame_set = None if frames is None else {nfc(f) for f in frames}
     found: list[ImageSetId] = []
     for split in splits:
         split_dir = root / "leftImg8bit" / split
-        if not split_dir.is_dir():
-            raise InputError(split_dir, f"split folder is missing (split {split!r})")
-        for city_dir in sorted(p for p in split_dir.iterdir() if p.is_dir()):
-            if cities is not None and city_dir.name not in cities:
-                continue
-            for file in sorted(city_dir.glob("*_leftImg8bit.png")):
-                ident = parse_name(split, file.name)
+        _folder(split_dir, f"split folder (split {split!r})")
+        for city_dir in subfolders(split_dir, city_set, skip_broken):
+            try:
+                entries = list_folder(city_dir)
+            except InputError:
+                if skip_broken:
+                    continue
+                raise
+            for entry in entries:
+                ident = parse_name(split, entry.name) if entry.name.endswith("_leftImg8bit.png") else None
                 if ident is None or ident.city != city_dir.name:
                     continue
-                if frames is not None and ident.name not in frames:
+                if frame_set is not None and nfc(ident.name) not in frame_set:
                     continue
                 found.append(ident)
     return sorted(found)

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 import struct
+import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -190,19 +192,129 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not a number JSON allows")
 
 
-def read_json(path: str | Path) -> Any:
-    """A JSON input file (a regular file of at most 16 MB; NaN and Infinity refused)."""
+#: JSON inputs nested deeper than this are refused (a Cityscapes polygons file has 4 levels; code
+#: walking a deeper tree would recurse as deep)
+MAX_JSON_DEPTH = 64
+#: the largest magnitude a JSON number may have: every number is used as a 64-bit float
+_FLOAT_MAX = sys.float_info.max
+
+
+class _Repeated(dict):
+    """A JSON object that gave one key twice (:func:`read_json` refuses it, naming the key)."""
+
+    repeated = ""
+
+
+def _where(keys: tuple) -> str:
+    return "'" + "/".join(str(k) for k in keys) + "'" if keys else "the top level"
+
+
+def _bad_number(value: Any) -> str | None:
+    """What is wrong with a parsed JSON scalar as a number this package uses, or None."""
+    if type(value) is int and not -_FLOAT_MAX <= value <= _FLOAT_MAX:
+        return (f"is too large (an integer of {len(str(abs(value)))} digits; numbers are used as 64-bit "
+                "floats, up to 1.8e308)")
+    if type(value) is float and not -_FLOAT_MAX <= value <= _FLOAT_MAX:
+        return "is beyond the range of a 64-bit float (up to 1.8e308)"
+    return None
+
+
+_NUMBERS = {int, float}
+_CONTAINERS = (dict, list, _Repeated)
+
+
+def _checked_tree(path: Path, data: Any) -> Any:
+    """``data`` when every object has distinct keys, every number fits a 64-bit float and it is
+    nested at most :data:`MAX_JSON_DEPTH` deep; an :class:`InputError` naming the file and the
+    field otherwise. Walks with a stack of its own (no recursion, whatever the depth); a list
+    or object of numbers alone (a polygon, a matrix) is checked at once, by its extremes."""
+    if not isinstance(data, (dict, list)):
+        why = _bad_number(data)
+        if why:
+            raise InputError(path, f"number at {_where(())} {why}")
+        return data
+    stack: list[tuple[Any, tuple]] = [(data, ())]
+    while stack:
+        node, keys = stack.pop()
+        if len(keys) >= MAX_JSON_DEPTH:
+            raise InputError(path, f"is nested more than {MAX_JSON_DEPTH} levels deep (at {_where(keys[:6])}...)")
+        if type(node) is _Repeated:
+            raise InputError(path, f"gives the key {node.repeated!r} twice in the object at {_where(keys)} "
+                                   "(only one may stay)")
+        values = node.values() if isinstance(node, dict) else node
+        kinds = set(map(type, values))
+        if kinds <= _NUMBERS and (not values or -_FLOAT_MAX <= min(values) and max(values) <= _FLOAT_MAX):
+            continue
+        for key, value in (node.items() if isinstance(node, dict) else enumerate(node)):
+            if type(value) in _CONTAINERS:
+                stack.append((value, keys + (key,)))
+            else:
+                why = _bad_number(value)
+                if why:
+                    raise InputError(path, f"number at {_where(keys + (key,))} {why}")
+    return data
+
+
+#: a JSON string once its escapes are taken out (blanked before the text is scanned)
+_STRING = re.compile(r'"[^"]*"')
+#: an exponent of 100 or more: the number may be beyond a float
+_LONG_EXPONENT = re.compile(r"[eE][+-]?0*[1-9][0-9]{2}")
+
+
+def _may_be_bad(text: str) -> bool:
+    """A quick look at valid JSON text, strings blanked: False when it surely nests less than
+    :data:`MAX_JSON_DEPTH` deep and holds no number beyond a float (most inputs: the tree is
+    then not walked, which would take a polygons file's parsing time again)."""
+    bare = _STRING.sub('""', text.replace("\\\\", "").replace('\\"', ""))  # escapes out, left to right
+    b = np.frombuffer(bare.encode("utf-8"), np.uint8)
+    if not len(b):
+        return False
+    depth = np.cumsum((b == 91) | (b == 123), dtype=np.int64) - np.cumsum((b == 93) | (b == 125), dtype=np.int64)
+    if depth.max() >= MAX_JSON_DEPTH:
+        return True
+    digit = np.concatenate([[0], ((b >= 48) & (b <= 57)).view(np.int8), [0]])
+    edges = np.flatnonzero(np.diff(digit))
+    return bool(len(edges) and (edges[1::2] - edges[::2]).max() >= 300) or _LONG_EXPONENT.search(bare) is not None
+
+
+def loads_json(text: str, path: str | Path = "<json>") -> Any:
+    """Parse JSON ``text`` as :func:`read_json` does (``path`` names it in errors)."""
     path = Path(path)
+    repeated: list[str] = []
+
+    def pairs(items: list[tuple[str, Any]]) -> dict:
+        obj = dict(items)
+        if len(obj) != len(items):  # the last would win, silently: marked, refused below
+            seen: set[str] = set()
+            obj = _Repeated(obj)
+            obj.repeated = next(k for k, _ in items if k in seen or seen.add(k))
+            repeated.append(obj.repeated)
+        return obj
+
     try:
-        text = read_input_bytes(path, 16 << 20).decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(path, f"cannot be read ({exc})") from None
-    try:
-        return json.loads(text, parse_constant=_no_constant)
+        data = json.loads(text, parse_constant=_no_constant, object_pairs_hook=pairs)
     except json.JSONDecodeError as exc:
         raise InputError(path, f"is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
-    except ValueError as exc:  # NaN, Infinity
+    except RecursionError:
+        raise InputError(path, f"is nested more than {MAX_JSON_DEPTH} levels deep") from None
+    except ValueError as exc:  # NaN, Infinity; an integer of thousands of digits
+        if "integer string conversion" in str(exc):
+            raise InputError(path, "holds an integer of more than 4300 digits (numbers are used as 64-bit floats, "
+                                   "up to 1.8e308)") from None
         raise InputError(path, f"is not valid JSON ({exc})") from None
+    return _checked_tree(path, data) if repeated or _may_be_bad(text) else data
+
+
+def read_json(path: str | Path) -> Any:
+    """A JSON input file: a regular file of at most 16 MB, UTF-8 (a byte order mark allowed);
+    refused naming the file (and the field) when it is not JSON, holds NaN or Infinity, a number
+    beyond a 64-bit float, a key twice in one object, or nests deeper than :data:`MAX_JSON_DEPTH`."""
+    path = Path(path)
+    try:
+        text = read_input_bytes(path, 16 << 20).decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(path, f"cannot be read ({exc})") from None
+    return loads_json(text, path)
 
 
 _COMPACT = json.JSONEncoder(allow_nan=False, separators=(", ", ": "))

@@ -20,6 +20,11 @@ for _label in labels:
 #: (256, 1, 4) uint8: COLOR_LUT with alpha 255, as cv2.LUT takes it (colorize)
 _RGBA_LUT = np.concatenate([COLOR_LUT, np.full((256, 1), 255, np.uint8)], axis=1)[:, None, :].copy()
 
+#: the classes an inserted object may have: Cityscapes' things (categories human, vehicle and
+#: object), not a group label ("polegroup") nor one without an id of its own ("license plate")
+INSERTABLE: tuple[str, ...] = tuple(lab.name for lab in labels if lab.category in ("human", "vehicle", "object")
+                                    and lab.id >= 0 and not lab.name.endswith("group"))
+
 #: Instance ids are class_id * INSTANCE_FACTOR + k (cityscapesScripts json2instanceImg).
 INSTANCE_FACTOR = 1000
 

@@ -27,7 +27,8 @@ from .errors import InputError
 from .fileio import read_json, write_json
 from .geometry import Frame
 from .labels import label_id
-from .placement import GROUND_LEVEL, Placement, PlacementResult, _visibility, fit_ground, ground_points, pose_matrix
+from .placement import (GROUND_LEVEL, Placement, PlacementResult, _visibility, box_corners, fit_ground, ground_points,
+                        pose_matrix)
 
 FORMAT = "synthcompose-placement/1"
 #: PreviewSession.load override: draw a random placement even where a file is saved
@@ -61,6 +62,36 @@ class SavedPlacement:
         return {"format": FORMAT, "image_set": self.image_set, "objects": objs}
 
 
+#: a saved pose farther than this from the vehicle frame's origin is refused, metres (the
+#: manifest's placement distance reaches 10 km at most)
+MAX_POSE_DISTANCE = 10_000.0
+#: a saved pose whose box is nearer the camera plane than this everywhere is behind it, metres
+NEAR_M = 0.1
+
+
+def _number_rows(rows) -> bool:
+    """A list of lists of JSON numbers (not strings, not booleans, within a float)."""
+    return isinstance(rows, list) and all(
+        isinstance(r, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= 1.7e308
+                                    for v in r) for r in rows)
+
+
+def pose_problem(frame: Frame, extents, matrix) -> str | None:
+    """What makes a pose given outright (saved) unusable in a frame, or None: its box wholly
+    behind the camera, or wholly outside its view."""
+    m = np.asarray(matrix, float)
+    corners = frame.to_optical(box_corners(m, extents))
+    if (corners[:, 2] <= NEAR_M).all():
+        return f"is behind the camera (its box lies {-corners[:, 2].max():.2f} m or more behind the image plane)"
+    front = corners[corners[:, 2] > NEAR_M]
+    uv = frame.camera.project(front)
+    H, W = frame.shape
+    if (uv[:, 0].max() < 0 or uv[:, 0].min() > W - 1 or uv[:, 1].max() < 0 or uv[:, 1].min() > H - 1) and \
+            (corners[:, 2] > NEAR_M).all():
+        return "is outside the camera's view (no corner of its box projects into the image)"
+    return None
+
+
 def _bad(path: Path, why: str) -> InputError:
     return InputError(path, f"saved placement {why}")
 
@@ -81,16 +112,21 @@ def read_saved(out_root: Path, ident: ImageSetId) -> SavedPlacement | None:
         raise _bad(path, "has no objects")
     out = []
     for i, o in enumerate(objs):
-        try:
-            m = np.array(o["matrix"], float)
-            name = str(o["name"])
-        except (KeyError, TypeError, ValueError):
-            raise _bad(path, f"object {i}: needs 'name' and a 4x4 'matrix'") from None
+        rows = o.get("matrix") if isinstance(o, dict) else None
+        if not isinstance(o, dict) or not isinstance(o.get("name"), str) or not _number_rows(rows):
+            raise _bad(path, f"object {i}: needs a 'name' string and a 4x4 'matrix' of numbers")
+        m = np.array(rows, float)
         if m.shape != (4, 4) or not np.isfinite(m).all() or not np.allclose(m[3], [0, 0, 0, 1]):
             raise _bad(path, f"object {i}: 'matrix' must be a finite 4x4 rigid transform")
         if not np.allclose(m[:3, :3].T @ m[:3, :3], np.eye(3), atol=1e-3):
             raise _bad(path, f"object {i}: 'matrix' rotation is not orthonormal")
-        out.append(SavedObject(name, tuple(tuple(float(v) for v in r) for r in m)))
+        if np.linalg.det(m[:3, :3]) < 0:
+            raise _bad(path, f"object {i}: 'matrix' mirrors the object (its rotation's determinant is -1): "
+                             "a pose turns an object, it cannot turn it inside out")
+        if np.abs(m[:3, 3]).max() > MAX_POSE_DISTANCE:
+            raise _bad(path, f"object {i}: 'matrix' puts the object {np.abs(m[:3, 3]).max():.3g} m away, more than "
+                             f"the {MAX_POSE_DISTANCE:g} m a placement may reach")
+        out.append(SavedObject(o["name"], tuple(tuple(float(v) for v in r) for r in m)))
     return SavedPlacement(ident.key, tuple(out), path, hashlib.sha256(raw).hexdigest())
 
 

@@ -14,7 +14,7 @@ MAX_LINES = 400  # "when a module grows past ~400 lines, split it by its steps"
 STAGE_OF = {
     "errors": 0, "fileio": 0, "labels": 0, "colour": 0, "camera": 0, "dataset": 0,
     "geometry": 1, "right_view": 1,
-    "placement": 2, "placements": 2, "surfaces": 2, "frequency": 2, "models": 2,
+    "placement": 2, "placements": 2, "surfaces": 2, "frequency": 2, "models": 2, "cast": 2,
     "lighting": 3, "appearance": 3,
     "gl": 4, "render": 4,
     "compose": 5,

@@ -13,25 +13,10 @@ from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.synthetic import make_sample
 
+from .helpers import ASSETS, OUT_KINDS, write_manifest  # noqa: F401 - others import them from here
 from .tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
 
-ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 W, H = 640, 320
-OUT_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "record")
-
-
-def write_manifest(path: Path, dataset: Path, output: Path, seed: int = 5, **extra) -> Path:
-    manifest = {
-        "dataset": str(dataset), "output": str(output), "seed": seed, "objects_per_image": 2,
-        "objects": [
-            {"name": "car", "model": str(ASSETS / "openmaterial_car" / "vehicle_example.gltf"), "class": "car",
-             "size": {"length": 4.4}, "weight": 2},
-            {"name": "sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5}},
-        ],
-    }
-    manifest.update(extra)
-    path.write_text(json.dumps(manifest))
-    return path
 
 
 @pytest.fixture(scope="module")

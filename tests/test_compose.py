@@ -59,9 +59,14 @@ def test_rgb_matches_numpy_reference_on_random_inputs(gl_clean, seed):
     assert (out["label_ids"][~mask] == scene.label_ids[~mask]).all()
     assert (out["instance_ids"][mask] == 26007).all()
     assert (out["instance_ids"][~mask] == scene.instance_ids[~mask]).all()
-    # disparity: the object's depth in the Cityscapes encoding
+    # disparity: the object's depth in the Cityscapes encoding; inside its silhouette (the pixel
+    # and its 4 neighbours the object's) where 10 % or more of the photo shows through, the photo's
     expected = np.rint(scene.disparity_scale / OBJ_DEPTH) + 1
-    assert (out["disparity"][mask] == expected).all()
+    padded = np.pad(mask, 1, mode="edge")
+    inside = mask & padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:]
+    through = inside & (alpha < 0.9)
+    assert (out["disparity"][mask & ~through] == expected).all()
+    assert (out["disparity"][through] == scene.disparity[through]).all()
     assert (out["disparity"][~mask] == scene.disparity[~mask]).all()
     assert ((out["visible"] > 0) == mask).all()
 
@@ -107,3 +112,21 @@ def test_shadow_only_where_the_plane_is_seen(gl_clean):
     assert np.abs(with_plane["rgb"].astype(int) - ref).max() <= COMPOSE_MAX_ERR_8BIT
     without = comp.compose_roi(_passes(gl_clean, irpv, ir, zero, zero, plane_cov=0.0), scene, [26], [26000])
     assert (without["rgb"] == scene.rgb).all()
+
+
+def test_through_an_objects_panes_the_photos_disparity_is_kept_and_the_label_is_the_objects(gl_clean):
+    """Inside an object's silhouette where the photo shows through its panes (colour coverage
+    under 0.9: docs/vehicles.md "Glass"), a camera sees through to the photo: its disparity is
+    kept; the labels are the object's there too. Where the object covers all (a body, a pane in
+    front of the interior) and at its silhouette's edge, the disparity is the object's."""
+    rng = np.random.default_rng(5)
+    scene = _scene(rng, np.inf)
+    alpha = np.ones((H, W), np.float32)
+    alpha[5:15, 5:25] = 0.5  # two panes: half of the photo shows through
+    obj = np.ones((H, W))
+    out = Composer(gl_clean).compose_roi(_passes(gl_clean, rng.random((H, W, 3), np.float32),
+                                                 np.zeros((H, W, 3), np.float32), alpha, obj), scene, [26], [26000])
+    written = np.uint16(np.floor(scene.disparity_scale / OBJ_DEPTH + 0.5) + 1)
+    assert (out["label_ids"] == 26).all() and (out["instance_ids"] == 26000).all()
+    assert (out["disparity"][6:14, 6:24] == scene.disparity[6:14, 6:24]).all()  # through the panes
+    assert (out["disparity"][18:, :] == written).all()  # the body

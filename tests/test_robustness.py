@@ -27,6 +27,7 @@ from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
 from synthcompose.synthetic import make_sample
 
+from .helpers import assert_resume_matches, with_reference_run
 from .test_batch import ASSETS, OUT_KINDS, write_manifest
 from .tolerances import RSS_GROWTH_MB
 
@@ -314,12 +315,7 @@ def test_fuzz_manifest_and_json_raise_only_typed_errors(tmp_path_factory, data, 
 
 # --------------------------------------------------------------------------- long runs, kills
 def test_kill_9_at_20_random_moments_then_resume_is_byte_identical(tmp_path):
-    root = tmp_path / "cs"
-    ids = make_sample(root, count=6, width=W, height=H, seed=9)
-    ref = tmp_path / "ref"
-    assert main(["batch", str(write_manifest(tmp_path / "r.json", root, ref)), "--no-progress"]) == 0
-    out = tmp_path / "out"
-    manifest = write_manifest(tmp_path / "m.json", root, out)
+    ids, manifest, out, ref = with_reference_run(tmp_path, size=(W, H))
     rnd = random.Random(20)
     for _ in range(20):
         proc = subprocess.Popen([sys.executable, "-m", "synthcompose", "batch", str(manifest), "--no-progress"],
@@ -333,10 +329,7 @@ def test_kill_9_at_20_random_moments_then_resume_is_byte_identical(tmp_path):
                 assert not p.exists() or cv2.imread(str(p), cv2.IMREAD_UNCHANGED) is not None, p
             rec = ident.path(out, "record")
             assert not rec.exists() or json.loads(rec.read_text())["status"]
-    assert main(["batch", str(manifest), "--no-progress"]) == 0
-    for ident in ids:
-        for kind in OUT_KINDS:
-            assert ident.path(out, kind).read_bytes() == ident.path(ref, kind).read_bytes(), (ident, kind)
+    assert_resume_matches(ids, manifest, out, ref)
 
 
 @pytest.mark.parametrize("streamed, count", [(False, 1000), (True, 200)])

@@ -260,7 +260,8 @@ def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
     subprocess.run([str(py), "-m", "synthcompose", "make-sample", str(sample), "--count", "1", "--size", "320x160"],
                    check=True, cwd=tmp_path)
     demo = json.loads((repo / "assets" / "demo" / "manifest.json").read_text())
-    for obj in demo["objects"]:
+    assert demo.get("cast") == "street"  # the built-in cast: its catalogue must be in the wheel
+    for obj in demo.get("objects", []):
         if not obj["model"].startswith("builtin:"):
             obj["model"] = str((repo / "assets" / "demo" / obj["model"]).resolve())
     demo.update(dataset=str(sample), output=str(tmp_path / "out"))
@@ -269,6 +270,13 @@ def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "1 done" in run.stdout
+    (record,) = (tmp_path / "out" / "synthcompose").rglob("*_synthcompose.json")
+    objects = json.loads(record.read_text())["objects"]
+    assert objects and all(o["model"] == "cast:" + o["appearance"]["model"] for o in objects)
+    listed = subprocess.run([str(py), "-c", "from synthcompose.cast import load_catalogue as c; "
+                             "print(c().root, len(c().entries))"], check=True, capture_output=True, text=True,
+                            cwd=tmp_path).stdout.split()
+    assert listed[0].startswith(str(site)) and int(listed[1]) == len(list((repo / "assets" / "cast").glob("*/*/entry.json")))
 
 
 def test_sigterm_with_workers_prints_no_traceback(tmp_path):

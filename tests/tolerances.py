@@ -258,3 +258,26 @@ PENUMBRA_GROWTH_MIN = 1.5
 #: occlusion leaves iso-lines along its straight sides that reach 0.26-0.34 here (the receiver's
 #: box of the earlier planes gave 0.5-1.1); the issue's 0.2 is a figure over real frames
 OUTLINE_SMOOTH_MAX = 0.4
+
+# ------------------------------------------------------------------ glass (test_glass.py)
+#: what a pane lets through of the photo vs (1 - reflectance) x its material's transmission, and
+#: the coverage vs its complement: the Fresnel term's growth off normal incidence over the pane
+#: (under 0.002 here) and half-float storage of the lit targets
+GLASS_TRANSMISSION_ABS = 0.01
+#: a pane's reflection may exceed reflectance x the sky's light by this share at most (the
+#: horizontal ray sees a mix of sky and ground, never more than the sky)
+GLASS_REFLECTION_REL = 0.05
+#: the interior seen through a pane vs the pane's reflection + its transmission x the interior
+#: rendered alone, relative: the same light on the same board; a pane left out, or drawn opaque,
+#: is off by a third or more
+GLASS_INTERIOR_REL = 0.01
+
+# ------------------------------------------------------------------ people posed at run time (test_people.py)
+PEOPLE_LBS_EPS = 1e-9  # linear blend skinning vs the same sums by hand, float64
+PEOPLE_REST_EPS_M = 1e-5  # the rest pose vs the bind mesh (float32 positions)
+PEOPLE_GROUND_M = 0.01  # a foot's lowest vertex vs the ground: the soles are put there by IK
+PEOPLE_FLAT_DEG = 2.0  # a flat foot's tilt
+#: share of arm vertices (below the armpit) inside the torso's cross-sections (shrunk 10 %): a
+#: puffy sleeve presses on a puffy jacket's side (measured up to 0.036); an arm through the body
+#: puts a quarter or more inside (test_an_arm_through_the_torso_is_caught)
+PEOPLE_ARM_INSIDE_MAX = 0.05

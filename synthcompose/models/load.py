@@ -105,14 +105,31 @@ def _load_trimesh(path: Path) -> list[MeshPart]:
         raise ModelError(path, f"cannot be read as a mesh ({type(exc).__name__}: {exc})") from None
     smooth = path.suffix.lower() not in (".stl",)
     parts = []
-    for mesh in scene.dump():
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            continue
-        linear = None
-        if scales and mesh.metadata.get("node") in scene.graph.nodes:
-            linear = np.asarray(scene.graph[mesh.metadata["node"]][0], np.float64)[:3, :3]
-        parts.append(_part_from_trimesh(mesh, smooth, scales, linear))
+    try:
+        for mesh in scene.dump():
+            if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+                continue
+            _check_indices(path, mesh.faces, len(mesh.vertices), mesh.metadata.get("name"))
+            linear = None
+            if scales and mesh.metadata.get("node") in scene.graph.nodes:
+                linear = np.asarray(scene.graph[mesh.metadata["node"]][0], np.float64)[:3, :3]
+            parts.append(_part_from_trimesh(mesh, smooth, scales, linear))
+    except ModelError:
+        raise
+    except OSError as exc:  # Pillow decodes a texture only when it is used
+        raise ModelError(path, f"has a texture that cannot be decoded ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many types for bad files
+        raise ModelError(path, f"cannot be read as a mesh ({type(exc).__name__}: {exc})") from None
     return parts
+
+
+def _check_indices(path: Path, faces, vertices: int, mesh: str | None = None) -> None:
+    """Every face index must name one of the mesh's ``vertices``."""
+    faces = np.asarray(faces)
+    if faces.size and (faces.min() < 0 or faces.max() >= vertices):
+        where = f" (mesh {mesh!r})" if mesh else ""
+        bad = int(faces.max()) if faces.max() >= vertices else int(faces.min())
+        raise ModelError(path, f"has a face index {bad} out of range: its mesh has {vertices} vertices{where}")
 
 
 def _load_assimp(path: Path) -> list[MeshPart]:
@@ -127,10 +144,11 @@ def _load_assimp(path: Path) -> list[MeshPart]:
         with pyassimp.load(str(path), processing=flags) as scene:
             parts = []
             for mesh in scene.meshes:
-                faces = np.asarray(mesh.faces, np.uint32)
+                faces = np.asarray(mesh.faces, np.int64)
                 if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
                     continue
                 pos = np.asarray(mesh.vertices, np.float32)
+                _check_indices(path, faces, len(pos))
                 nrm = np.asarray(mesh.normals, np.float32) if len(mesh.normals) else np.zeros_like(pos)
                 color = np.array([0.6, 0.6, 0.6, 1.0], np.float32)
                 props = getattr(mesh.material, "properties", {}) or {}
@@ -181,6 +199,7 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
     dim, target = next(iter(size.items()))
     if ext[dims[dim]] <= 1e-9:
         raise ModelError(path, f"has zero {dim} (degenerate model)")
+    _check_solid(path, parts, pos, ext)
     scale = float(target) / float(ext[dims[dim]])
     offset = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]], np.float32)
     out = []
@@ -194,6 +213,28 @@ def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], k
         out.append(replace(p, positions=((q - offset) * scale).astype(np.float32), normals=nrm.astype(np.float32),
                            tangents=tan))
     return Model(key, tuple(out), tuple(float(e * scale) for e in ext))
+
+
+#: a model whose height is below this share of its largest extent is flat; one whose
+#: triangles' area is below this share of its largest extent squared has no surface to draw
+FLAT_SHARE = 1e-6
+
+
+def _check_solid(path, parts: list[MeshPart], pos: list[np.ndarray], ext: np.ndarray) -> None:
+    """Refuse a model nothing of which would be seen: flat, lying on the ground (no height:
+    a street camera sees it edge-on or not at all; a standing plate, a sign's, may be thin),
+    or all of whose triangles have zero area."""
+    if ext[2] <= FLAT_SHARE * ext.max():
+        raise ModelError(path, f"is flat: its height is {float(ext[2]):.3g} in its own units, against "
+                               f"{float(ext.max()):.3g} for its largest side (check 'up': the model's up axis)")
+    area = 0.0
+    for p, q in zip(parts, pos):
+        _check_indices(path, p.indices, len(q))
+        a, b, c = (q[p.indices[:, k]].astype(np.float64) for k in range(3))
+        area += 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+    if area <= FLAT_SHARE * float(ext.max()) ** 2:
+        triangles = sum(len(p.indices) for p in parts)
+        raise ModelError(path, f"has no surface: all its {triangles} triangles have zero area (nothing would be drawn)")
 
 
 def model_digest(path: str) -> str:
@@ -239,6 +280,8 @@ def load_model(path: str, size_key: tuple[tuple[str, float], ...], up: str = "+y
             raise ModelError(path, f"unknown builtin model; known: {', '.join(sorted(BUILTINS))}")
         return _normalise(BUILTINS[name](), np.eye(3), size, key, path)
     p = Path(path)
+    if p.is_dir():
+        raise ModelError(p, "is a folder, not a model file")
     if not p.is_file():
         raise ModelError(p, "model file is missing")
     if p.stat().st_size == 0:

@@ -16,8 +16,10 @@ from ..colour import srgb_to_linear
 
 #: prefix of a model built in code rather than read from a file
 BUILTIN_PREFIX = "builtin:"
-#: opaque stand-in colour for transparent glass (linear RGB)
+#: opaque stand-in colour for transparent vertices of a part that is not all glass (linear RGB)
 GLASS_RGB = np.array([0.015, 0.02, 0.025], np.float32)
+#: a material whose alpha (glTF baseColorFactor's, or a vertex colour's) is below this is glass
+GLASS_ALPHA = 0.5
 
 #: textured materials with such names are drawn blank (:data:`NEUTRAL_PLATE`, linear RGBA)
 _NEUTRAL = re.compile(r"licen[cs]e|plate|decal|logo|badge", re.IGNORECASE)
@@ -49,6 +51,13 @@ class MeshPart:
     normal_scale   : glTF normalTexture.scale, multiplies the map's x and y
     plate     : (W, H) px of the model's own plate texture when this part is a number plate
                 (its texture is dropped, its UVs kept): each object's plate is drawn on it
+    label     : the Cityscapes class of this part when it is not the object's (a sign's pole:
+                "pole"; a class without instances); None: the object's class
+    name      : the material's name ("" when the file gives none); vehicles name theirs by
+                role (docs/vehicles.md): ``paint`` is the recolourable one (:mod:`..appearance`)
+    transmission : 0 for an opaque part; for glass (every vertex's alpha under
+                :data:`GLASS_ALPHA`) the share of light its material lets through, 1 - alpha: the
+                lit pass draws it over what is behind it (shaders/lit.glsl, GLASS)
     """
 
     positions: np.ndarray
@@ -62,6 +71,9 @@ class MeshPart:
     normal_texture: np.ndarray | None = None
     normal_scale: float = 1.0
     plate: tuple[int, int] | None = None
+    label: str | None = None
+    name: str = ""
+    transmission: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -212,15 +224,25 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
             tangents = vertex_tangents(mesh.vertices, normals, uvs, mesh.faces)
         else:
             tangents = _orthonormal_tangents(tangents[:, :3], tangents[:, 3], normals)
+    name = ""
+    if isinstance(visual, trimesh.visual.texture.TextureVisuals) and visual.material is not None:
+        name = str(getattr(visual.material, "name", "") or "")
     return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture,
-                        tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale, plate=plate)
+                        tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale, plate=plate,
+                        name=name)
 
 
 def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
-                 normal_texture=None, normal_scale=1.0, plate=None) -> MeshPart:
+                 normal_texture=None, normal_scale=1.0, plate=None, label=None, name="") -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
-    glass = colors[:, 3] < 0.5
-    if glass.any():  # transparent glass: render as dark glossy opaque surface
+    glass = colors[:, 3] < GLASS_ALPHA
+    transmission = 0.0
+    if len(glass) and glass.all():
+        # a glass material: drawn over what is behind it, letting 1 - alpha through (lit.glsl)
+        transmission = float(np.clip(1.0 - np.median(colors[:, 3]), 0.0, 1.0))
+        material = np.asarray(material, np.float32).copy()
+        material[:, 1] = np.minimum(material[:, 1], 0.1)
+    elif glass.any():  # transparent vertices of a part that is not all glass: dark glossy opaque
         colors[glass, :3] = GLASS_RGB + colors[glass, :3] * colors[glass, 3:4] * 0.2
         material = np.asarray(material, np.float32).copy()
         material[glass, 1] = 0.05
@@ -237,4 +259,7 @@ def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, t
         normal_texture=normal_texture,
         normal_scale=float(normal_scale),
         plate=plate,
+        label=label,
+        name=str(name),
+        transmission=transmission,
     )

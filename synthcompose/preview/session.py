@@ -158,8 +158,11 @@ class PreviewSession:
         if frame is not None:
             names = [i.name for i in self.ids]
             if frame not in names:
+                from ..selection import near
+
                 raise SynthComposeError(f"frame {frame!r} is not among the manifest's image sets "
-                                        f"({', '.join(names[:5])}{', ...' if len(names) > 5 else ''})")
+                                        f"({', '.join(names[:5])}{', ...' if len(names) > 5 else ''})"
+                                        f"{near(frame, names)}")
             self.index = names.index(frame)
         self.pipeline = Pipeline(manifest, weights, gl_backend=gl_backend, gl=gl)
         self.seed_offset = 0

@@ -8,7 +8,9 @@ import moderngl
 import numpy as np
 
 from ..gl import GLContext
+from ..labels import HAS_INSTANCES, label_id
 from ..models import Model
+from .values import PART_SHIFT
 
 #: the vertex buffer's attributes in order, with their float counts (models and the plane)
 VERTEX_LAYOUT = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_color", 4), ("in_material", 2))
@@ -29,13 +31,16 @@ def vertex_layout(prog: moderngl.Program, buffer: moderngl.Buffer, attributes) -
 
 @dataclass(frozen=True)
 class GpuMaps:
-    """The textures of one part: sRGB base colour and linear tangent-space normal map; ``plate``:
-    a number plate's image size, the part drawn with each object's plate (:mod:`.lit`)."""
+    """What a lit draw of one part binds: sRGB base colour and linear tangent-space normal map;
+    ``plate``: a number plate's image size, the part drawn with each object's plate (:mod:`.lit`);
+    ``transmission``: above 0 for glass, drawn after the opaque parts over what they left
+    (:meth:`.lit.LitDraw.draw`)."""
 
     base: moderngl.Texture | None
     normal: moderngl.Texture | None = None
     normal_scale: float = 1.0
     plate: tuple[int, int] | None = None
+    transmission: float = 0.0
 
 
 def mipmapped(gl: GLContext, image: np.ndarray) -> moderngl.Texture:
@@ -68,6 +73,13 @@ class _Mesh:
             self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
                                                                       index_element_size=4))
         return self._vaos[prog]
+
+    def release(self) -> None:
+        """Free the GL objects of this mesh (it is not drawn again)."""
+        for obj in (*self._vaos.values(), self._vbo, self._ibo, self._tbo):
+            if obj is not None:
+                self._gl.free(obj)
+        self._vaos.clear()
 
 
 class GroundPlane(_Mesh):
@@ -102,7 +114,8 @@ class GpuModel(_Mesh):
                                         axis=1).astype(np.float32))
             indices.append(part.indices.astype(np.uint32).ravel() + np.uint32(first))
             first += len(part.positions)
-            maps = GpuMaps(None if part.texture is None else mipmapped(gl, part.texture), plate=part.plate)
+            maps = GpuMaps(None if part.texture is None else mipmapped(gl, part.texture), plate=part.plate,
+                           transmission=float(part.transmission))
             if part.normal_texture is not None and part.tangents is not None:
                 maps = replace(maps, normal=mipmapped(gl, part.normal_texture), normal_scale=float(part.normal_scale))
             if has_tangents:
@@ -112,11 +125,25 @@ class GpuModel(_Mesh):
         super().__init__(gl, np.concatenate(datas).tobytes(), np.concatenate(indices).tobytes(),
                          np.concatenate(tangents).tobytes() if has_tangents else None)
         self._programs = programs
+        #: (first index, index count, part label id or 0) of each id-pass draw: one per run of
+        #: parts with the same label (one draw for a model without part labels)
+        self.label_runs: list[tuple[int, int, int]] = []
+        start = 0
+        for idx, part in zip(indices, model.parts):
+            lid = 0 if part.label is None else label_id(part.label)
+            if lid and HAS_INSTANCES[lid]:
+                raise ValueError(f"part label {part.label!r}: only classes without instances label parts")
+            if self.label_runs and self.label_runs[-1][2] == lid:
+                f, n, _ = self.label_runs[-1]
+                self.label_runs[-1] = (f, n + len(idx), lid)
+            else:
+                self.label_runs.append((start, len(idx), lid))
+            start += len(idx)
         #: (first index, index count, maps) of each lit draw
         self.ranges: list[tuple[int, int, GpuMaps]] = []
         start = 0
         for idx, maps in zip(indices, maps_of):
-            plain = maps.base is None and maps.normal is None and maps.plate is None
+            plain = maps.base is None and maps.normal is None and maps.plate is None and not maps.transmission
             if self.ranges and plain and self.ranges[-1][2] == maps:
                 f, n, _ = self.ranges[-1]
                 self.ranges[-1] = (f, n + len(idx), maps)
@@ -124,6 +151,26 @@ class GpuModel(_Mesh):
                 self.ranges.append((start, len(idx), maps))
             start += len(idx)
 
+    def release(self) -> None:
+        """Free the buffers, vertex arrays and textures of this model."""
+        super().release()
+        textures = {id(t): t for _, _, maps in self.ranges for t in (maps.base, maps.normal) if t is not None}
+        for tex in textures.values():
+            self._gl.free(tex)
+        self.ranges = []
+
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""
         self.vao(self._programs[name]).render(moderngl.TRIANGLES)
+
+    def draw_ids(self, index: int) -> None:
+        """The id pass of object ``index`` (its other uniforms set): each part's value is the
+        index, with its part label above :data:`PART_SHIFT` where it has one."""
+        prog = self._programs["id"]
+        if len(self.label_runs) == 1 and self.label_runs[0][2] == 0:
+            prog["u_id"].value = index
+            self.vao(prog).render(moderngl.TRIANGLES)
+            return
+        for first, count, lid in self.label_runs:
+            prog["u_id"].value = index | (lid << PART_SHIFT)
+            self.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)

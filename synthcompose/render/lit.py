@@ -138,9 +138,10 @@ class LitDraw:
         return tex
 
     def program(self, plane: bool, shadows: bool = True, textured: bool = False,
-                normal_map: bool = False) -> moderngl.Program:
+                normal_map: bool = False, glass: bool = False) -> moderngl.Program:
         """The lit.glsl variant for a ground plane (``shadows`` False: Ir) or for object parts
-        (with a base colour texture, a normal map), with this render's uniforms (:attr:`uniforms`) set."""
+        (with a base colour texture, a normal map; ``glass``: a pane drawn over what is behind
+        it), with this render's uniforms (:attr:`uniforms`) set."""
         defines = {"PLANE": 1} if plane else {}
         if plane and not shadows:
             defines["NO_SHADOWS"] = 1
@@ -148,6 +149,8 @@ class LitDraw:
             defines["TEXTURE"] = 1
         if normal_map:
             defines["NORMAL_MAP"] = 1
+        if glass:
+            defines["GLASS"] = 1
         prog = self.gl.program("lit", **defines)
         for name, value in self.uniforms.items():
             uniform = prog.get(name, None)  # a variant may not use it
@@ -163,7 +166,8 @@ class LitDraw:
              shadows: bool = True) -> None:
         """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
         (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
-        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`)."""
+        Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`);
+        the opaque parts of every object first, then their glass (:meth:`_draw_glass`)."""
         prog = self.program(plane=True, shadows=shadows)
         vao = self.plane.vao(prog)
         for obj in objects:
@@ -177,21 +181,57 @@ class LitDraw:
         if not objects_too:
             return
         # objects drawn over their planes
-        variants: dict[tuple[bool, bool], moderngl.Program] = {}
+        variants: dict[tuple[bool, bool, bool], moderngl.Program] = {}
+        glass = []
         for obj in objects:
-            gpu = self._gpu_model(obj.model)
-            for first, count, maps in gpu.ranges:
-                base = self._base_texture(obj, maps)
-                key = (base is not None, maps.normal is not None)
-                if key not in variants:
-                    variants[key] = self.program(plane=False, textured=key[0], normal_map=key[1])
-                prog = variants[key]
-                prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
-                prog["u_sun_scale"].value = float(obj.sun_visibility)
-                set_recolour(prog, obj.recolour)
-                if base is not None:
-                    base.use(0)
-                if maps.normal is not None:
-                    maps.normal.use(6)
-                    prog["u_normal_scale"].value = maps.normal_scale
-                gpu.vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)
+            for run in self._gpu_model(obj.model).ranges:
+                if run[2].transmission > 0.0:
+                    glass.append((obj, run))
+                else:
+                    self._draw_run(obj, run, variants)
+        if glass:
+            self._draw_glass(glass, variants)
+
+    def _draw_run(self, obj: RenderObject, run, variants: dict) -> None:
+        """One run of ``obj``'s parts (first index, count, maps) with its lit variant."""
+        first, count, maps = run
+        base = self._base_texture(obj, maps)
+        key = (base is not None, maps.normal is not None, maps.transmission > 0.0)
+        if key not in variants:
+            variants[key] = self.program(plane=False, textured=key[0], normal_map=key[1], glass=key[2])
+        prog = variants[key]
+        prog["u_model"].write(gl_mat4(obj.vehicle_from_object))
+        prog["u_sun_scale"].value = float(obj.sun_visibility)
+        if key[2]:  # a pane: no base colour of its own to change
+            prog["u_transmission"].value = float(maps.transmission)
+        else:
+            set_recolour(prog, obj.recolour)
+        if base is not None:
+            base.use(0)
+        if maps.normal is not None:
+            maps.normal.use(6)
+            prog["u_normal_scale"].value = maps.normal_scale
+        self._gpu_model(obj.model).vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)
+
+    def _draw_glass(self, glass: list, variants: dict) -> None:
+        """The glass runs over everything drawn, blended (premultiplied: what a pane reflects is
+        added, what it lets through of what is behind is kept, lit.glsl GLASS), without writing
+        depth: first the panes facing away from the camera (a car's far windows, seen through
+        its near ones), then those facing it, each object's from the farthest object to the
+        nearest. The vehicles' glass is wound to face out of the vehicle (docs/vehicles.md)."""
+        ctx = self.gl.ctx
+        eye = np.asarray(self.uniforms["u_camera_pos"], np.float64)
+        glass = sorted(glass, key=lambda item: -float(np.linalg.norm(item[0].vehicle_from_object[:3, 3] - eye)))
+        fbo = ctx.fbo
+        fbo.depth_mask = False
+        ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+        try:
+            for side in ("front", "back"):  # the faces culled: back faces drawn first
+                ctx.cull_face = side
+                for obj, run in glass:
+                    self._draw_run(obj, run, variants)
+        finally:
+            ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+            ctx.cull_face = "back"
+            fbo.depth_mask = True

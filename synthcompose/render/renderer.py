@@ -4,6 +4,7 @@ planes alone Ir, shaded per sample or per pixel (:mod:`.shading`) and resolved i
 then the integer ids at pixel centres; the passes are listed in :mod:`synthcompose.render`."""
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Sequence
 
 import moderngl
@@ -30,8 +31,14 @@ def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl
         gl.free(obj)
 
 
+#: models kept on the GPU between renders: beyond it the least recently drawn are freed (a
+#: person posed for each object is a new mesh every time, :mod:`..models.skinning`)
+MODELS_KEPT = 24
+
+
 class Renderer:
-    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept."""
+    """Draws render passes with one :class:`GLContext`; models are uploaded once and kept (the
+    :data:`MODELS_KEPT` most recently drawn)."""
 
     def __init__(self, gl: GLContext, shadow_size: int = 1024, shading: str = "auto", precision: str = "half") -> None:
         """``shading``: "sample" runs the lighting for every sample of the 4x multisampled lit
@@ -52,7 +59,7 @@ class Renderer:
         fill = FillPrograms.compile(gl) if shading == "pixel" else None
         if fill is not None:
             self.programs["fill"] = fill.objects  # the models draw their samples with it
-        self._models: dict[str, GpuModel] = {}
+        self._models: OrderedDict[str, GpuModel] = OrderedDict()  # the most recently drawn last
         # bound to sampler units that have nothing to show: every active sampler of a draw
         # must see a texture of its own kind (another pass may have left an integer one)
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
@@ -62,9 +69,22 @@ class Renderer:
             PerPixel(gl, fill, self._lit, self._gpu_model, precision)
 
     def _gpu_model(self, model: Model) -> GpuModel:
-        if model.key not in self._models:
-            self._models[model.key] = GpuModel(self.gl, model, self.programs)
-        return self._models[model.key]
+        gpu = self._models.pop(model.key, None)
+        if gpu is None:
+            gpu = GpuModel(self.gl, model, self.programs)
+        self._models[model.key] = gpu
+        return gpu
+
+    def _trim(self, objects: Sequence[RenderObject]) -> None:
+        """Free the least recently drawn models beyond :data:`MODELS_KEPT`, none of ``objects``'."""
+        wanted = {obj.model.key for obj in objects}
+        for key in [k for k in self._models if k not in wanted][:max(len(self._models) - MODELS_KEPT, 0)]:
+            self._models.pop(key).release()
+
+    @property
+    def models_kept(self) -> int:
+        """How many models are on the GPU now."""
+        return len(self._models)
 
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
                photo: np.ndarray | None = None, roi: Roi | None = None,
@@ -84,6 +104,7 @@ class Renderer:
         if roi is None:
             return None
         gl, ctx = self.gl.activate(), self.gl.ctx
+        self._trim(objects)
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
         tex: dict[str, moderngl.Texture] = {}
@@ -125,7 +146,8 @@ class Renderer:
         return RenderPasses(roi, cam, tex, gl)
 
     def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
-        """The id pass: (uint object index 1..K at each pixel centre, 0 = none; its depth)."""
+        """The id pass: (uint object index 1..K at each pixel centre, 0 = none, with a part's
+        own label above gpu_model.PART_SHIFT; its depth)."""
         gl, ctx = self.gl, self.gl.ctx
         ids = gl.texture(size, 1, dtype="u4")
         id_depth = gl.texture(size, 1, dtype="f4")
@@ -139,8 +161,7 @@ class Renderer:
         idp["u_proj"].write(gl_mat4(proj))
         for k, obj in enumerate(objects, start=1):
             idp["u_model"].write(gl_mat4(obj.vehicle_from_object))
-            idp["u_id"].value = k
-            self._gpu_model(obj.model).draw("id")
+            self._gpu_model(obj.model).draw_ids(k)
         for obj in (id_fbo, id_depth_rb):
             gl.free(obj)
         return ids, id_depth

@@ -21,6 +21,9 @@ NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 PLANE_MARGIN = 1.5
 #: and as far as the sun throws the object's shadow, up to this (metres)
 SHADOW_REACH = 8.0
+#: the id pass writes object index k (1..15) | part label << PART_SHIFT: a part labelled apart
+#: from its object (a sign's pole) carries its Cityscapes id there, 0 elsewhere
+PART_SHIFT = 8
 
 
 @dataclass(frozen=True)
@@ -99,12 +102,17 @@ class RenderPasses:
     gl: GLContext = field(repr=False)
 
     def read(self, name: str) -> np.ndarray:
-        """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id``."""
+        """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id`` (the object
+        index) and ``part`` (the Cityscapes id of a part labelled apart from its object, else 0:
+        both kept in the id texture)."""
         self.gl.activate().wait()
-        tex = self.textures[name]
+        tex = self.textures["id" if name == "part" else name]
         dtype = np.uint32 if tex.dtype == "u4" else np.float32
         arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
-        return arr[..., 0] if tex.components == 1 else arr
+        arr = arr[..., 0] if tex.components == 1 else arr
+        if name == "id":
+            return arr & np.uint32((1 << PART_SHIFT) - 1)
+        return arr >> np.uint32(PART_SHIFT) if name == "part" else arr
 
 
 def crop_camera(camera: Camera, roi: Roi) -> Camera:

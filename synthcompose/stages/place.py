@@ -9,15 +9,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
+from ..cast import CastDraw, cast_model, cast_rng, draw_entry
 from ..dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from ..errors import InputError, SynthComposeError
 from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record
 from ..manifest import Manifest, ObjectSpec
-from ..models import Model, load_model
+from ..models import Model, load_model, posable, pose_rng, posed_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
-from ..placements import SavedPlacement, saved_result
+from ..placements import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
 from .timing import timed
@@ -34,7 +35,8 @@ def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) ->
     existing += [i % INSTANCE_FACTOR for i in taken if i // INSTANCE_FACTOR == class_id]
     k = max(existing, default=-1) + 1
     if k >= INSTANCE_FACTOR:
-        raise SynthComposeError(f"no free instance id left for class {class_id}")
+        raise SynthComposeError(f"holds instance {class_id * INSTANCE_FACTOR + k - 1} of class {class_id} already: "
+                                f"no instance id is left for another (ids end at {class_id * INSTANCE_FACTOR + 999})")
     return class_id * INSTANCE_FACTOR + k
 
 
@@ -47,6 +49,8 @@ class PlacedObject:
     result: PlacementResult  # the pose and the candidates' rejections
     instance_id: int
     check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+    cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
+    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -74,6 +78,21 @@ def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
+def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int) -> tuple[Model, CastDraw | None, dict | None]:
+    """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
+    drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
+    posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
+    builtin as it is."""
+    if spec.cast:
+        rng = cast_rng(m.seed, key, index)
+        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng)
+        return model, drawn, None
+    if spec.class_name in ("person", "rider") and posable(spec.model):
+        model, pose = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index))
+        return model, None, pose
+    return load_model(spec.model, spec.size, spec.up, spec.forward), None, None
+
+
 def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     """With an input polygons file, the ids its entries number (cityscapesScripts counts them):
     an inserted instance appended after them gets the next."""
@@ -97,7 +116,9 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model = load_model(spec.model, spec.size, spec.up, spec.forward)
+            model, drawn, pose = object_model(m, spec, ident.key, len(objects))
+            if saved is not None and (problem := pose_problem(frame, model.extents, saved.objects[k].matrix)):
+                raise InputError(saved.path, f"saved placement object {k} ({spec.name!r}) {problem}")
             others = [o.placement for o in objects]
             result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
                                   spec.orientation, others, trace=trace) \
@@ -115,9 +136,12 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
                 if why is not None:
                     check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
                     log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
-            inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+            try:
+                inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+            except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
+                raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
             taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check))
+            objects.append(PlacedObject(spec, model, result, inst, check, drawn, pose))
     noise = frame_noise(frame)
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,

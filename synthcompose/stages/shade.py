@@ -118,6 +118,8 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
         classes = [label_id(o.spec.class_name) for o in placed.objects]
         tones, camera_looks = None, [None] * len(placed.objects)
         ids = passes.read("id") if passes is not None else None  # object index per pixel
+        if ids is not None and any(p.label for o in placed.objects for p in o.model.parts):
+            ids[passes.read("part") > 0] = 0  # each object's own class: not a sign's pole
         if passes is not None and light.reference is not None:  # the camera's look on the objects
             fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
             camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],

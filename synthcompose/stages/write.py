@@ -8,10 +8,12 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 
 from ..annotations import write_frame_annotations
 from ..fileio import encode_rle
 from ..dataset import ImageSetId
+from ..errors import SynthComposeError
 from ..labels import label_id
 from ..manifest import Manifest
 from ..render import mask_box
@@ -42,10 +44,13 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     for k, (obj, look) in enumerate(zip(s.placed.objects, s.looks), start=1):
         pl, spec = obj.placement, obj.spec
         mask = visible == k
+        if any(p.label for p in obj.model.parts):  # its own class's pixels, not those of a part labelled apart
+            mask &= s.composed.label_ids == label_id(spec.class_name)
         bbox = mask_box(mask)
         visible_pixels = int(mask.sum())
         out.append(ObjectRecord(
-            index=k, name=spec.name, model=spec.model, class_name=spec.class_name,
+            index=k, name=spec.name, model=spec.model if obj.cast is None else f"cast:{obj.cast.entry.id}",
+            class_name=spec.class_name,
             allowed_surfaces=tuple(spec.allowed_surfaces), orientation=spec.orientation,
             label_id=label_id(spec.class_name), instance_id=obj.instance_id, extents_m=tuple(pl.extents),
             pose=ObjectPose.of(pl.matrix, opt_from_v, pl.position, pl.yaw),
@@ -59,7 +64,8 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
             occluded_fraction=round(1.0 - visible_pixels / max(int(s.rendered[k]), 1), 4),
             truncated=pl.truncated,
             placement={"attempts": obj.result.attempts, "rejections": obj.result.rejections},
-            appearance=look.appearance.to_dict(),
+            appearance=look.appearance.to_dict() | (dict(obj.cast.appearance) if obj.cast is not None else {})
+            | ({"pose": obj.pose} if obj.pose is not None else {}),
             camera_look=None if look.camera_look is None else
             {k2: (round(v, 4) if isinstance(v, float) else v) for k2, v in look.camera_look.items()},
             placement_source="saved" if s.placed.saved is not None else "random",
@@ -69,9 +75,22 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
     return tuple(out)
 
 
+def check_visible(s: Shaded) -> None:
+    """Refuse to write an image set with an object no pixel of which is seen (hidden, too far,
+    or a model that draws nothing): it would be annotated with nothing, yet change the photo
+    (its shadow). Raised before any file is written; the image set fails, naming the object."""
+    counts = np.bincount(s.composed.visible.ravel(), minlength=len(s.placed.objects) + 1)
+    for k, obj in enumerate(s.placed.objects, start=1):
+        if counts[k] == 0:
+            raise SynthComposeError(f"{obj.spec.model}: object {k} ({obj.spec.name!r}, {obj.spec.class_name}) has 0 "
+                                    f"visible pixels once rendered ({int(s.rendered[k])} drawn before occlusion): "
+                                    "the image set is not written")
+
+
 def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, float]) -> Outcome:
-    """The image set's files, annotations and record (last)."""
+    """The image set's files, annotations and record (last); none with an unseen object."""
     composed = s.composed
+    check_visible(s)
     with timed(timings, "write"):
         write_outputs(m.output, ident, composed, s.camera_json, s.right_rgb)
         objects = object_records(s)
