@@ -166,6 +166,7 @@ def run(root: Path, base: Path, seeds, objects: int, labels: dict, truth: Path |
     for seed in seeds:
         out = base / f"out_{seed}"
         if not measure_only:
+            base.mkdir(parents=True, exist_ok=True)
             manifest = load_manifest(write_manifest(root, out, objects, seed, 6.0, base))
             run_batch(manifest, workers=1, progress=False, resume=False)
         f, c, r = measure(root, out, labels, truth)
