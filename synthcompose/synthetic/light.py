@@ -208,12 +208,20 @@ SUNNY_ELEVATION, SUNNY_FRACTION = (18.0, 55.0), (0.55, 0.78)
 SUNNY_SKY_TINT, SUNNY_SUN_TINT = (0.86, 1.0, 1.22), (1.12, 1.0, 0.84)
 #: a real sun's angular radius (degrees)
 SUN_RADIUS_DEG = 0.267
+#: the sun's azimuth within this many degrees of the street's axis (either way along it): the
+#: generated streets are canyons (buildings 8-20 m high, 7-10 m from the centre line), where a
+#: sun across the street leaves all the road in the houses' shade, a frame a person would not
+#: call sunny; a sun along it lights a band of road that the houses' edges, the poles and the
+#: cars throw their shadows on (as on the sunny street frames)
+SUNNY_AZIMUTH_FROM_STREET = 35.0
 
 
 def sunny_light(rng: np.random.Generator) -> SceneLight:
-    """A sunny day's :class:`SceneLight`: the sun anywhere around, the ranges above, the
-    penumbra of a real sun."""
-    return SceneLight(sun_azimuth_deg=float(rng.uniform(0.0, 360.0)),
+    """A sunny day's :class:`SceneLight`: the sun along the street (:data:`SUNNY_AZIMUTH_FROM_STREET`,
+    the street along x), the ranges above, the penumbra of a real sun."""
+    ahead = rng.random() < 0.5
+    azimuth = (0.0 if ahead else 180.0) + rng.uniform(-SUNNY_AZIMUTH_FROM_STREET, SUNNY_AZIMUTH_FROM_STREET)
+    return SceneLight(sun_azimuth_deg=float(azimuth % 360.0),
                       sun_elevation_deg=float(rng.uniform(*SUNNY_ELEVATION)),
                       sun_fraction=float(rng.uniform(*SUNNY_FRACTION)), sky_tint=SUNNY_SKY_TINT,
                       sun_tint=SUNNY_SUN_TINT, ground_ratio=0.3, shadows=True, sun_radius_deg=SUN_RADIUS_DEG)
