@@ -9,7 +9,6 @@ from pathlib import Path
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import estimate_lighting
-from synthcompose.lighting.plan import completed_labels
 from synthcompose.shadowlook import read_sun_labels
 from synthcompose.surfaces import frame_for
 
@@ -30,8 +29,7 @@ def test_sunny_street_frames_are_called_sunny_and_overcast_ones_not():
         s = read_image_set(root, ident)
         depth = disparity_to_depth(s.disparity, s.camera)
         frame, _ = frame_for(s, depth)
-        lab = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, depth, s.camera)
-        est = estimate_lighting(s.rgb, lab, depth, s.camera, labelled=frame.labelled)
+        est = estimate_lighting(s.rgb, frame.label_ids, depth, s.camera, labelled=frame.labelled)
         called[kind].append(est.sunny)
     assert called["sunny"] and called["overcast"]
     assert sum(called["sunny"]) >= SUNNY_FOUND_MIN * len(called["sunny"]), called

@@ -70,8 +70,8 @@ def measure_light(m: Manifest, prep: Prepared, timings: dict[str, float]) -> Pho
         if m.lighting_mode == "estimate":
             labels = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, prep.depth,
                                                                               image_set.camera)
-            estimate = estimate_lighting(image_set.rgb, labels, prep.depth, image_set.camera,
-                                         labelled=frame.labelled, complete=False)
+            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera,
+                                         labelled=frame.labelled, completed=labels)
         if m.camera_match:
             match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
