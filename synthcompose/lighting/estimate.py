@@ -162,10 +162,18 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cg = g if labelled else _grid(rgb, completed, depth, camera, work_width, smooth)
         plan_dir = plansun.direction(ps, _caster_cue(cg, camera), evidence)
     if plan_dir is not None:
+        # the plan's edges run along the sun's azimuth and along the street (roof lines, car
+        # sides): where the other cues already found a sun and its direction (two ground levels
+        # and the shading pairs, the lit or shaded ground, the casters), the plan's direction
+        # replaces theirs only if it explains the shading and the shadows as well
+        found = cues["sun_direction_sure"] or any(c is not None for c in (lit_ground, cast, shaded))
+        shading_sun = bool(sunny and found) and evidence(az, el)[0] >= evidence(*plan_dir[:2])[0]
         sunny, lit_ground, cast, shaded = True, None, None, None
-        az, el, info = plan_dir
-        cues.update(info)
-        cues["sun_direction_sure"] = info["caster_agreement"] > 0
+        cues["plan_direction"] = not shading_sun
+        if not shading_sun:
+            az, el, info = plan_dir
+            cues.update(info)
+            cues["sun_direction_sure"] = info["caster_agreement"] > 0
         strength = plansun.strength(ps)
     if not sunny:
         delta = 0.0
