@@ -10,7 +10,7 @@ PY := $(VENV)/bin/python
 SAMPLE := assets/demo/cityscapes
 SAMPLE_COUNT ?= 3
 
-.PHONY: help system venv sample demo test bench clean
+.PHONY: help system venv sample demo test check lint bench clean
 
 help: ## show this help
 	@grep -hE '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-8s %s\n", $$1, $$2}'
@@ -36,9 +36,16 @@ demo: system venv sample ## run the main job on the bundled sample
 	$(VENV)/bin/synthcompose batch assets/demo/manifest.json
 	@echo "results: out/demo (images under leftImg8bit/, rightImg8bit/, gtFine/, disparity/; records under synthcompose/)"
 
-test: system venv ## run the test suite
+test: system venv lint ## run the whole test suite (the linter, then every test; CI runs this)
 	@bash scripts/system-deps.sh --test
 	$(PY) -m pytest
+
+check: system venv lint ## the fast tier: every test not marked slow (a few minutes)
+	@bash scripts/system-deps.sh --test
+	$(PY) -m pytest -m "not slow"
+
+lint: venv ## ruff: line length and import order (pyproject.toml)
+	$(VENV)/bin/ruff check synthcompose tests benchmarks scripts
 
 clean: ## remove generated outputs (keeps the virtualenv)
 	rm -rf out $(SAMPLE)

@@ -25,7 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose import ecosystem  # noqa: E402
+from evaluation import ecosystem  # noqa: E402
 from synthcompose.batch import run_batch  # noqa: E402
 from synthcompose.dataset import find_image_sets  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402

@@ -9,7 +9,7 @@ an unlabelled root gives the label-free figures only). --generated N renders N 2
 scenes in the same run, frame i from ``random_scene(default_rng([seed, i]))`` as
 ``make_sample`` draws them. Prints each frame's figures, then per figure the range (min..max)
 over the real and the generated frames. The figures are defined in
-``synthcompose/synthetic/stereo_stats.py`` and ``photo_stats.py``. Nothing is written (real
+``evaluation/stereo_stats.py`` and ``photo_stats.py``. Nothing is written (real
 frames may not be redistributed).
 """
 from __future__ import annotations
@@ -27,8 +27,8 @@ sys.path.insert(0, str(REPO))
 
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.synthetic import PHOTO_MODES, STEREO_MODES, random_scene, render_scene  # noqa: E402
-from synthcompose.synthetic.photo_stats import photo_stats  # noqa: E402
-from synthcompose.synthetic.stereo_stats import BANDS, stereo_stats  # noqa: E402
+from evaluation.photo_stats import photo_stats  # noqa: E402
+from evaluation.stereo_stats import BANDS, stereo_stats  # noqa: E402
 
 ROWS = [("valid", "valid share", "{:.1%}"), ("left_band_valid", "valid share, left 100 columns", "{:.1%}"),
         ("residual_med", "road plane residual 31x31, median px", "{:.2f}"),

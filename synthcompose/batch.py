@@ -34,9 +34,9 @@ from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import BatchError, _in_process, _process_pool, _ray_engine, worker_count
+from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .pipeline import STAGES, Outcome
-from .record import DONE, NO_PLACEMENT, read_record
+from .record import Status, read_record
 from .selection import select_image_sets
 from .writer import discard_outputs, output_paths
 
@@ -56,7 +56,7 @@ class Summary:
     class_counts: dict[str, int] | None = None  # "balance" mode: the dataset's objects per class
     notes: list[str] = field(default_factory=list)  # what went wrong outside any image set
 
-    def count(self, status: str) -> int:
+    def count(self, status: Status) -> int:
         return sum(o.status == status for o in self.outcomes)
 
     @property
@@ -65,20 +65,20 @@ class Summary:
 
     @property
     def exit_code(self) -> int:
-        return 1 if self.count("failed") else 0
+        return 1 if self.count(Status.FAILED) else 0
 
     def stage_means(self) -> dict[str, float]:
-        done = [o for o in self.outcomes if o.status == "done" and not o.resumed]
+        done = [o for o in self.outcomes if o.status == Status.DONE and not o.resumed]
         return {s: (sum(o.timings.get(s, 0.0) for o in done) / len(done) if done else 0.0) for s in STAGES}
 
     def to_dict(self) -> dict:
         out = {
-            "done": self.count("done"), "skipped": self.count("skipped"), "failed": self.count("failed"),
+            "done": self.count(Status.DONE), "skipped": self.count(Status.SKIPPED), "failed": self.count(Status.FAILED),
             "resumed": self.resumed, "engine": self.engine, "workers": self.workers,
             "wall_s": round(self.wall_s, 3),
             "mean_stage_s": {k: round(v, 4) for k, v in self.stage_means().items()},
             "problems": [{"image_set": o.key, "status": o.status, "reason": o.reason}
-                         for o in self.outcomes if o.status != "done"],
+                         for o in self.outcomes if o.status != Status.DONE],
             "image_sets": [{"image_set": o.key, "status": o.status, "resumed": o.resumed,
                             "stage_s": {k: round(v, 4) for k, v in o.timings.items()}} for o in self.outcomes],
         }
@@ -93,12 +93,12 @@ class Summary:
                  f"({self.resumed} already complete) in {self.wall_s:.1f} s with {self.workers} "
                  f"{self.engine} worker(s)"]
         worked = sum(not o.resumed for o in self.outcomes)
-        if any(o.status == "done" and not o.resumed for o in self.outcomes):
+        if any(o.status == Status.DONE and not o.resumed for o in self.outcomes):
             lines.append(f"{self.wall_s / max(worked, 1) * 1000:.0f} ms per image set; mean stage times "
                          "(stages of consecutive image sets overlap): " +
                          ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in self.stage_means().items()))
         for o in self.outcomes:
-            if o.status != "done":
+            if o.status != Status.DONE:
                 lines.append(f"  {o.status}: {o.key}: {o.reason}")
         return "\n".join(lines)
 
@@ -136,10 +136,10 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
     from .placements import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record.placement_file):
         return None
-    if record.status == DONE:
-        return Outcome(ident.key, "done", None, len(record.objects), resumed=True)
-    if record.status == NO_PLACEMENT:
-        return Outcome(ident.key, "skipped", "no valid placement (earlier run)", resumed=True)
+    if record.status == Status.DONE:
+        return Outcome(ident.key, Status.DONE, None, len(record.objects), resumed=True)
+    if record.status == Status.NO_PLACEMENT:
+        return Outcome(ident.key, Status.SKIPPED, "no valid placement (earlier run)", resumed=True)
     return None
 
 
@@ -229,12 +229,12 @@ def _consume(stream: Iterable[Outcome], summary: Summary, bar, show_bar: bool, t
         bar.update(1)
         if on_outcome:
             on_outcome(outcome)
-        if outcome.status != "done":
+        if outcome.status != Status.DONE:
             log.warning("%s %s: %s", outcome.status, outcome.key, outcome.reason)
             if not outcome.resumed:  # nothing of it outlives its record: this run's, or none
-                discard_outputs(manifest.output, by_key[outcome.key], keep_record=outcome.status == "skipped")
+                discard_outputs(manifest.output, by_key[outcome.key], keep_record=outcome.status == Status.SKIPPED)
         if show_bar:
-            bar.set_postfix(done=summary.count("done"), failed=summary.count("failed"))
+            bar.set_postfix(done=summary.count(Status.DONE), failed=summary.count(Status.FAILED))
         else:
             log.info("[%d/%d] %s %s (%.2f s)", i, total, outcome.status, outcome.key, sum(outcome.timings.values()))
 
@@ -275,11 +275,11 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
         log.info("%d image sets from %s -> %s: %d to do, %d already complete", len(ids), manifest.dataset,
                  manifest.output, len(todo), len(ids) - len(todo))
         if use_ray:
-            stream: Iterable[Outcome] = _ray_engine(manifest, weights, todo, workers, ray_address, gpus_per_actor)
+            stream: Iterable[Outcome] = ray_engine(manifest, weights, todo, workers, ray_address, gpus_per_actor)
         elif workers <= 1:
-            stream = _in_process(manifest, weights, todo, 0 if gpus else None)
+            stream = in_process(manifest, weights, todo, 0 if gpus else None)
         else:
-            stream = _process_pool(manifest, weights, todo, workers, gpus)
+            stream = process_pool(manifest, weights, todo, workers, gpus)
         show_bar = sys.stderr.isatty() if progress is None else progress
         bar = tqdm(total=len(todo), unit="set", disable=not show_bar, dynamic_ncols=True)
         # log lines go above the bar, not onto it

@@ -72,11 +72,12 @@ def _report(args: argparse.Namespace) -> int:
 def _compare_lighting(args: argparse.Namespace) -> int:
     from .compare import compare_lighting
     from .manifest import load_manifest
+    from .record import Status
 
     results = compare_lighting(load_manifest(args.manifest), Path(args.out), limit=args.limit)
     for r in results:
         print(f"{r['image_set']}: {r['status']}" + "".join(f"\n  {p}" for p in r["written"]))
-    return 0 if all(r["status"] in ("done", "no valid placement") for r in results) else 1
+    return 0 if all(r["status"] in (Status.DONE, Status.NO_PLACEMENT) for r in results) else 1
 
 
 # --- preview (preview/)

@@ -14,7 +14,7 @@ from .batch import select
 from .fileio import decode_rle, read_png, write_png
 from .look import side_by_side
 from .pipeline import Pipeline
-from .record import ImageSetRecord, read_record
+from .record import ImageSetRecord, Status, read_record
 
 
 def _label(img: np.ndarray, text: str) -> np.ndarray:
@@ -76,12 +76,12 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
         entry: dict = {"image_set": ident.key, "written": []}
         records = {name: ident.path(m.output, "record") for name, m in variants.items()}
         if not all(p.is_file() for p in records.values()):
-            entry["status"] = "failed"
+            entry["status"] = Status.FAILED
             results.append(entry)
             continue
         rec = {name: read_record(p) for name, p in records.items()}
         entry["status"] = rec["estimated"].status
-        if entry["status"] != "done":
+        if entry["status"] != Status.DONE:
             results.append(entry)
             continue
         src = read_png(ident.path(manifest.dataset, "rgb"), "rgb8")

@@ -7,7 +7,7 @@ import multiprocessing as mp
 import os
 import signal
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -15,11 +15,11 @@ from .dataset import ImageSetId
 from .errors import SynthComposeError
 from .manifest import Manifest
 from .pipeline import Outcome, Pipeline
+from .record import Status
 
 log = logging.getLogger("synthcompose")
 
 #: fault injection (tests): a worker process given this image set key crashes with SIGSEGV
-FAULT_CRASH_ENV = "SYNTHCOMPOSE_FAULT_CRASH"
 
 
 class BatchError(SynthComposeError):
@@ -83,13 +83,13 @@ def worker_count(requested: int) -> tuple[int, str | None]:
     return n, None
 
 
-def _in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], gl_device: int | None) -> Iterator[Outcome]:
+def in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], gl_device: int | None) -> Iterator[Outcome]:
     with Pipeline(manifest, weights, gl_device=gl_device) as pipe:
         log.info("GL: %s", pipe.gl.renderer_name)
         yield from pipe.stream(todo)
 
 
-def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
+def run_worker(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
                  threads: int) -> None:
     """A spawned worker: its own GL context; takes image sets over its own pipe until None.
 
@@ -112,12 +112,9 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
         conn.send(("init-failed", f"{type(exc).__name__}: {exc}"))
         return
     conn.send(("ready", pipe.gl.renderer_name))
-    crash_on = os.environ.get(FAULT_CRASH_ENV)
 
     def begin(ident: ImageSetId) -> None:
         conn.send(("begin", ident.key))
-        if crash_on and ident.key == crash_on:  # fault injection for the tests: a driver crash
-            os.kill(os.getpid(), signal.SIGSEGV)
 
     try:
         for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
@@ -130,11 +127,15 @@ def _worker_main(manifest: Manifest, weights: np.ndarray, gl_device: int | None,
         pipe.close()
 
 
+#: what a worker process runs (spawned: a module-level callable taking :func:`run_worker`'s
+#: arguments); the tests put a wrapper here that injects a fault
+worker_entry: Callable[..., None] = run_worker
+
 #: image sets queued on each worker process: one computed, one read ahead
 IN_FLIGHT = 2
 
 
-def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
+def process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
                   gpus: int) -> Iterator[Outcome]:
     """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
     from multiprocessing.connection import wait
@@ -152,7 +153,7 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
         next_id += 1
         parent_end, child_end = ctx.Pipe()
         device = (wid % gpus) if gpus else None
-        proc = ctx.Process(target=_worker_main, args=(manifest, weights, device, child_end, wid, threads),
+        proc = ctx.Process(target=worker_entry, args=(manifest, weights, device, child_end, wid, threads),
                            name=f"synthcompose-worker-{wid}", daemon=True)
         proc.start()
         child_end.close()
@@ -178,7 +179,7 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
         while outstanding:
             if not slots:
                 for ident in reversed(pending):
-                    yield Outcome(ident.key, "failed", "no worker left to process it")
+                    yield Outcome(ident.key, Status.FAILED, "no worker left to process it")
                 return
             ready = wait([sl["conn"] for sl in slots.values()] + [sl["proc"].sentinel for sl in slots.values()],
                          timeout=5.0)
@@ -213,7 +214,7 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
                     for ident in reversed(slot["queued"]):
                         if ident.key == slot["computing"]:
                             outstanding -= 1
-                            yield Outcome(ident.key, "failed",
+                            yield Outcome(ident.key, Status.FAILED,
                                           f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
                         else:
                             pending.append(ident)
@@ -235,7 +236,7 @@ def _process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId
                 slot["proc"].terminate()
 
 
-def _ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
+def ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
                 address: str | None, gpus_per_actor: float) -> Iterator[Outcome]:
     """Ray actors, one GL context each (GPUs as Ray resources); a dead actor is replaced."""
     try:
@@ -267,7 +268,7 @@ def _ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId],
             try:
                 yield ray.get(ref)
             except ray.exceptions.RayError as exc:
-                yield Outcome(ident.key, "failed", f"Ray worker failed on this image set: {type(exc).__name__}")
+                yield Outcome(ident.key, Status.FAILED, f"Ray worker failed on this image set: {type(exc).__name__}")
                 ray.kill(actor, no_restart=True)
                 actor = Actor.remote(manifest, weights)
             submit(actor)

@@ -34,6 +34,7 @@ from .gl import GLContext
 from .malloc import steady_malloc
 from .manifest import Manifest
 from .placements import read_saved
+from .record import Status
 from .render import Renderer
 from .stages import (Outcome, PhotoLight, Placed, Prepared, Shaded, measure_light, place, prepare, shade, write_done,
                      write_skipped)
@@ -50,10 +51,10 @@ def _guarded(ident: ImageSetId, timings: dict[str, float], step: Callable):
     try:
         return step()
     except SynthComposeError as exc:
-        return Outcome(ident.key, "failed", str(exc), timings=timings)
+        return Outcome(ident.key, Status.FAILED, str(exc), timings=timings)
     except Exception as exc:  # a bug must not take the rest of the batch down
         log.debug("internal error on %s", ident.key, exc_info=True)
-        return Outcome(ident.key, "failed", f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+        return Outcome(ident.key, Status.FAILED, f"internal error: {type(exc).__name__}: {exc}", timings=timings)
 
 
 @dataclass(frozen=True, eq=False)

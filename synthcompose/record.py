@@ -23,12 +23,24 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
+from enum import StrEnum
+
 import numpy as np
 
 from .errors import InputError
 
 RECORD_VERSION = 1
-DONE, NO_PLACEMENT = "done", "no valid placement"
+
+
+class Status(StrEnum):
+    """One vocabulary for what became of an image set: its batch outcome (``done``, ``skipped``,
+    ``failed``) and its record's status (``done``, ``no valid placement``: the record of a
+    skipped set). A ``str``: written to JSON and compared as its value."""
+
+    DONE = "done"
+    SKIPPED = "skipped"
+    FAILED = "failed"
+    NO_PLACEMENT = "no valid placement"
 
 Box = tuple[int, int, int, int]
 
@@ -162,7 +174,7 @@ class ImageSetRecord:
     placement_file: Mapping[str, Any] | None = None
     camera_match: Mapping[str, Any] | None = None
     image: Mapping[str, Any] | None = None  # file_name (relative to the output root), width, height
-    status: str | None = None
+    status: Status | None = None
     record_version: int = field(default=RECORD_VERSION)
     views: tuple[str, ...] = ("left",)  # the photos the objects were composed into: "left", and "right"
 
@@ -180,7 +192,7 @@ class ImageSetRecord:
             value = getattr(self, key)
             if value is not None:
                 d[key] = dict(value)
-        if self.status == DONE:
+        if self.status == Status.DONE:
             d["views"] = list(self.views)
         d["status"] = self.status
         return d
@@ -196,7 +208,7 @@ class ImageSetRecord:
                        dict(d.get("stereo_noise") or {}), dict(d.get("lighting") or {}),
                        tuple(ObjectRecord.from_json(o) for o in d.get("objects", [])),
                        tuple(d.get("not_placed", [])), d.get("placement_file"), d.get("camera_match"), d.get("image"),
-                       d.get("status"), int(d.get("record_version", 0)),
+                       None if d.get("status") is None else Status(d["status"]), int(d.get("record_version", 0)),
                        tuple(str(v) for v in d.get("views", ["left"])))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
             raise RecordError(path or Path("<record>"),
@@ -204,7 +216,7 @@ class ImageSetRecord:
 
     @property
     def done(self) -> bool:
-        return self.status == DONE
+        return self.status == Status.DONE
 
 
 def read_record(path: Path) -> ImageSetRecord:

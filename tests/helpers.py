@@ -2,7 +2,13 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
+
+import numpy as np
+import pytest
+
+from synthcompose.camera import Camera
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 #: the files every complete output image set has
@@ -55,3 +61,65 @@ def assert_resume_matches(ids, manifest: Path, out: Path, ref: Path) -> None:
     for ident in ids:
         for kind in OUT_KINDS:
             assert ident.path(out, kind).read_bytes() == ident.path(ref, kind).read_bytes(), (ident, kind)
+
+
+def crashing_worker(crash_key: str, *args) -> None:
+    """A worker process (``engines.worker_entry``) that dies like a driver crash (SIGSEGV)
+    once it has begun the image set ``crash_key``; module-level, so a spawned worker imports it."""
+    import os
+    import signal
+
+    from synthcompose import engines, pipeline
+
+    stream = pipeline.Pipeline.stream
+
+    def crashing_stream(self, items, on_begin=None):
+        def begin(ident):
+            if on_begin is not None:
+                on_begin(ident)
+            if ident.key == crash_key:
+                os.kill(os.getpid(), signal.SIGSEGV)
+        return stream(self, items, on_begin=begin)
+
+    pipeline.Pipeline.stream = crashing_stream
+    engines.run_worker(*args)
+
+
+#: the small frames of the end-to-end tests (pixels)
+W, H = 640, 320
+#: the sizes the placement tests give a car, a person and a sign (length, width, height, metres)
+SIZES = {"car": (4.4, 1.85, 1.48), "person": (0.5, 0.6, 1.75), "traffic sign": (0.2, 0.8, 2.5)}
+
+
+def make_camera(w=640, h=320, **kw) -> Camera:
+    base = dict(fx=700.0, fy=702.0, u0=w / 2 + 11.3, v0=h / 2 - 4.2, baseline=0.21, x=1.7, y=0.1, z=1.22,
+                yaw=0.02, pitch=0.04, roll=-0.005, width=w, height=h)
+    base.update(kw)
+    return Camera(**base)
+
+
+def drawn_back(objects, shape) -> tuple[np.ndarray, np.ndarray]:
+    """labelIds and instanceIds as cityscapesScripts draws them from polygon entries."""
+    from cityscapesscripts.helpers.annotation import Annotation
+    from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
+    from cityscapesscripts.preparation.json2labelImg import createLabelImage
+
+    ann = Annotation()
+    ann.fromJsonText(json.dumps({"imgHeight": shape[0], "imgWidth": shape[1], "objects": objects}))
+    return np.array(createLabelImage(ann, "ids")), np.array(createInstanceImage(ann, "ids")).astype(np.int64)
+
+
+def pose_behind_a_pole(scene) -> np.ndarray:
+    """(4, 4) pose on the road 3 m behind a pole, across the line of sight (skips without one)."""
+    from synthcompose.placement import pose_matrix
+
+    cam = scene.camera
+    for pole in scene.poles:
+        ray = np.array([pole.x - cam.x, pole.y - cam.y])
+        dist = np.hypot(*ray)
+        behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
+        if bool(scene.is_road(behind[0], behind[1])):
+            z = float(scene.ground_height(behind[0], behind[1]))
+            return pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
+                               math.atan2(ray[1], ray[0]) + math.pi / 2)
+    pytest.skip("no pole in front of the road in this scene")

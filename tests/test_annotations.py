@@ -25,9 +25,8 @@ from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES
-from synthcompose.synthetic import make_sample
 
-from .test_batch import write_manifest
+from .helpers import drawn_back, write_manifest
 # the tolerances, from the one table; imported from here too (test_ecosystem, test_real_polygons)
 from .tolerances import CORNER_M, CORNER_PX, INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK, POLYGON_MIN_IOU, SILHOUETTE_PX
 
@@ -103,18 +102,11 @@ def _frame(with_gap: bool = True) -> tuple[np.ndarray, np.ndarray]:
     return lab, inst
 
 
-def _drawn_back(objects, shape) -> tuple[np.ndarray, np.ndarray]:
-    """labelIds and instanceIds as cityscapesScripts draws them from polygon entries."""
-    ann = Annotation()
-    ann.fromJsonText(json.dumps({"imgHeight": shape[0], "imgWidth": shape[1], "objects": objects}))
-    return np.array(createLabelImage(ann, "ids")), np.array(createInstanceImage(ann, "ids")).astype(np.int64)
-
-
 @pytest.mark.parametrize("with_gap", [True, False])
 def test_frame_polygons_draw_back_to_the_labels_with_cityscapesscripts(with_gap):
     lab, inst = _frame(with_gap)
     objects = frame_polygons(lab, inst)
-    labels, instances = _drawn_back(objects, lab.shape)
+    labels, instances = drawn_back(objects, lab.shape)
     assert (labels == lab).all() and (instances == inst).all()
     cars = [o for o in objects if o["label"] == "car"]
     assert len(cars) == (3 if with_gap else 2)  # one entry per instance, a one-pixel one for the gap
@@ -135,7 +127,7 @@ def test_frame_polygons_of_random_label_images_draw_back():
             cv2.ellipse(m, c, axes, float(rng.uniform(0, 180)), 0, 360, 1, -1)
             lab[m > 0] = lid
             inst[m > 0] = lid * 1000 + k if lid in (24, 26) else lid
-        labels, instances = _drawn_back(frame_polygons(lab, inst), lab.shape)
+        labels, instances = drawn_back(frame_polygons(lab, inst), lab.shape)
         assert (labels == lab).mean() >= LABELS_DRAWN_BACK and (instances == inst).mean() >= INSTANCES_DRAWN_BACK
 
 
@@ -162,28 +154,6 @@ def test_sensor_matrix_matches_a_real_cityscapes_3d_file():
 
 
 # ------------------------------------------------------------------------- end to end
-@pytest.fixture(scope="module")
-def batch(tmp_path_factory) -> tuple[Path, Path, list[ImageSetId]]:
-    root = tmp_path_factory.mktemp("cityscapes")
-    ids = make_sample(root, count=3, width=W, height=H, seed=1)
-    # the first set has its own polygons and 3D boxes: they must be kept
-    src = read_image_set(root, ids[0])
-    ids[0].path(root, "polygons").write_text(json.dumps(
-        {"imgHeight": H, "imgWidth": W, "objects": frame_polygons(src.label_ids, src.instance_ids)}))
-    box_file = bbox3d_path(root, ids[0])
-    box_file.parent.mkdir(parents=True)
-    box_file.write_text(json.dumps({
-        "imgWidth": W, "imgHeight": H, "sensor": {},
-        "objects": [{"2d": {"modal": [1, 2, 3, 4], "amodal": [1, 2, 3, 5]},
-                     "3d": {"center": [30.0, -5.0, 0.8], "dimensions": [4.0, 1.8, 1.5], "rotation": [1.0, 0, 0, 0]},
-                     "label": "car", "instanceId": 26000, "score": 1.0}],
-        "ignore": [{"2d": [0, 0, 10, 10], "label": "car", "instanceId": -1}]}))
-    work = tmp_path_factory.mktemp("batch")
-    out = work / "out"
-    assert main(["batch", str(write_manifest(work / "m.json", root, out)), "--no-progress"]) == 0
-    return root, out, ids
-
-
 def _records(out: Path, ids: list[ImageSetId]) -> list[dict]:
     records = [json.loads(i.path(out, "record").read_text()) for i in ids]
     assert all(r["status"] == "done" and r["objects"] for r in records)
@@ -207,16 +177,16 @@ def _visible_masks(root: Path, out: Path, ident: ImageSetId, record: dict) -> di
     return masks
 
 
-def test_every_annotation_file_is_written(batch):
-    _, out, ids = batch
+def test_every_annotation_file_is_written(annotated_batch):
+    _, out, ids = annotated_batch
     for ident in ids:
         assert ident.path(out, "polygons").is_file()
         assert bbox3d_path(out, ident).is_file()
     assert (out / COCO_NAME).is_file()
 
 
-def test_amodal_box_holds_the_modal_box(batch):
-    _, out, ids = batch
+def test_amodal_box_holds_the_modal_box(annotated_batch):
+    _, out, ids = annotated_batch
     for record in _records(out, ids):
         for obj in record["objects"]:
             m, a = obj["bbox_2d"], obj["bbox_2d_amodal"]
@@ -226,10 +196,10 @@ def test_amodal_box_holds_the_modal_box(batch):
                 assert a == m
 
 
-def test_polygons_draw_back_to_the_written_labels(batch):
+def test_polygons_draw_back_to_the_written_labels(annotated_batch):
     """cityscapesScripts' json2labelImg / json2instanceImg drawing of the polygons file gives
     the written labelIds and instanceIds: the whole frame, one entry per instance."""
-    root, out, ids = batch
+    root, out, ids = annotated_batch
     for ident, record in zip(ids, _records(out, ids)):
         masks = _visible_masks(root, out, ident, record)
         res = read_image_set(out, ident)
@@ -268,8 +238,8 @@ def _cs_corner_order(pose: np.ndarray, extents) -> np.ndarray:
     return local @ pose[:3, :3].T + pose[:3, 3]
 
 
-def test_3d_boxes_load_and_project_with_cityscapesscripts(batch):
-    root, out, ids = batch
+def test_3d_boxes_load_and_project_with_cityscapesscripts(annotated_batch):
+    root, out, ids = annotated_batch
     for ident, record in zip(ids, _records(out, ids)):
         path = bbox3d_path(out, ident)
         ann = Annotation(CsObjectType.BBOX3D)
@@ -319,8 +289,8 @@ def test_3d_boxes_load_and_project_with_cityscapesscripts(batch):
             assert np.allclose(box3d_corners(pose, obj["extents_m"]).mean(0), box.center, atol=1e-3)
 
 
-def test_coco_file_loads_and_matches_the_instance_masks(batch):
-    root, out, ids = batch
+def test_coco_file_loads_and_matches_the_instance_masks(annotated_batch):
+    root, out, ids = annotated_batch
     coco = COCO(str(out / COCO_NAME))
     records = _records(out, ids)
     assert len(coco.getImgIds()) == len(ids)
@@ -345,8 +315,8 @@ def test_coco_file_loads_and_matches_the_instance_masks(batch):
             assert ann["area"] == mask.sum() == obj["visible_pixels"]
 
 
-def test_coco_file_is_rebuilt_from_the_records_on_resume(batch, tmp_path):
-    root, out, ids = batch
+def test_coco_file_is_rebuilt_from_the_records_on_resume(annotated_batch, tmp_path):
+    root, out, ids = annotated_batch
     first = (out / COCO_NAME).read_bytes()
     (out / COCO_NAME).unlink()
     manifest = write_manifest(tmp_path / "m.json", root, out)  # same configuration: every set is resumed
@@ -366,7 +336,7 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     from synthcompose.models import load_model
     from synthcompose.render import Lighting, RenderObject, Renderer
 
-    from .test_placement_rules import pose_behind_a_pole
+    from .helpers import pose_behind_a_pole
     from synthcompose.synthetic import random_scene, render_scene
 
     scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
@@ -416,12 +386,12 @@ def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     filled = _filled(entry["polygon"], visible.shape)
     assert _iou(filled, visible) >= POLYGON_MIN_IOU
     assert (filled & hidden).sum() <= 0.02 * visible.sum()  # the bridges across the pole
-    labels, instances = _drawn_back(doc["objects"], visible.shape)
+    labels, instances = drawn_back(doc["objects"], visible.shape)
     assert (labels == out.label_ids).mean() >= LABELS_DRAWN_BACK
     assert (instances == out.instance_ids).mean() >= INSTANCES_DRAWN_BACK
     # without the scene's polygons: the whole frame, drawn back
     whole = polygons_document(None, record["objects"], out.visible, out.label_ids, out.instance_ids)
-    labels, instances = _drawn_back(whole["objects"], visible.shape)
+    labels, instances = drawn_back(whole["objects"], visible.shape)
     assert (labels == out.label_ids).mean() >= LABELS_DRAWN_BACK
     assert (instances == out.instance_ids).mean() >= INSTANCES_DRAWN_BACK
 

@@ -1,6 +1,7 @@
 """The house rules ARCHITECTURE.md states, checked on the package's source: no import cycle
-(imports inside functions included, type-checking-only imports left out), no stage importing a
-stage after it, no module over the size limit."""
+(relative and absolute imports, inside functions included, type-checking-only imports left
+out), every top-level module in a layer and none importing a later layer, no module over the
+size limit."""
 from __future__ import annotations
 
 import ast
@@ -9,23 +10,30 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "synthcompose"
 MAX_LINES = 400  # "when a module grows past ~400 lines, split it by its steps"
-#: the stages in order (a top-level module or package of synthcompose -> its stage); modules not
-#: named here (pipeline, batch, engines, cli, preview, compare, stages, ...) run the stages
+#: the layers in pipeline order (a top-level module or package of synthcompose -> its layer):
+#: a module imports only from its own layer or earlier ones; every top-level module has one
 STAGE_OF = {
-    "errors": 0, "fileio": 0, "labels": 0, "colour": 0, "camera": 0, "dataset": 0,
+    # what every stage reads: errors, files, labels, colours, the camera, the dataset
+    "errors": 0, "fileio": 0, "labels": 0, "colour": 0, "camera": 0, "dataset": 0, "malloc": 0,
+    "builtin": 0, "plates": 0,
     "geometry": 1, "right_view": 1,
     "placement": 2, "placements": 2, "surfaces": 2, "frequency": 2, "models": 2, "cast": 2,
-    "lighting": 3, "appearance": 3,
+    "lighting": 3, "appearance": 3, "look": 3, "manifest": 3,
     "gl": 4, "render": 4,
     "compose": 5,
     "writer": 6, "annotations": 6, "polygons": 6, "record": 6,
+    # running the stages: one image set, a batch, its engines
+    "stages": 7, "pipeline": 7, "engines": 7, "selection": 7, "batch": 7,
+    # the tools around the batch, the generator, the command line
+    "check": 8, "report": 8, "compare": 8, "preview": 8, "synthetic": 8,
+    "cli": 8, "__main__": 8,
 }
 
 
-def _modules() -> dict[str, Path]:
+def _modules(package: Path = PACKAGE) -> dict[str, Path]:
     out = {}
-    for f in PACKAGE.rglob("*.py"):
-        parts = list(f.relative_to(PACKAGE.parent).with_suffix("").parts)
+    for f in package.rglob("*.py"):
+        parts = list(f.relative_to(package.parent).with_suffix("").parts)
         if parts[-1] == "__init__":
             parts = parts[:-1]
         out[".".join(parts)] = f
@@ -33,9 +41,15 @@ def _modules() -> dict[str, Path]:
 
 
 def _imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
-    """The package modules ``name`` imports (relative imports, at any depth of its code)."""
+    """The package modules ``name`` imports (relative and absolute imports, at any depth of its
+    code)."""
     found: set[str] = set()
     package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+
+    def add(target: str, names: list[str], itself: bool = True) -> None:
+        for candidate in ([target] if itself else []) + [f"{target}.{n}" for n in names]:
+            if candidate in known and candidate != name:
+                found.add(candidate)
 
     def visit(tree: ast.AST) -> None:
         for node in ast.iter_child_nodes(tree):
@@ -46,22 +60,26 @@ def _imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
                 if node.level > 1:
                     base = base[:len(base) - (node.level - 1)]
                 target = ".".join(base + ([node.module] if node.module else []))
-                for candidate in ([target] if node.module else []) + [f"{target}.{a.name}" for a in node.names]:
-                    if candidate in known and candidate != name:
-                        found.add(candidate)
+                add(target, [a.name for a in node.names], itself=node.module is not None)  # from . import x: x
+            elif isinstance(node, ast.ImportFrom) and node.module:  # from synthcompose.x import y
+                add(node.module, [a.name for a in node.names])
+            elif isinstance(node, ast.Import):  # import synthcompose.x.y
+                for a in node.names:
+                    add(a.name, [])
             visit(node)
 
     visit(ast.parse(path.read_text()))
     return found
 
 
-def _graph() -> dict[str, set[str]]:
-    known = _modules()
+def _graph(package: Path = PACKAGE) -> dict[str, set[str]]:
+    known = _modules(package)
     return {name: _imports(name, path, known) for name, path in known.items()}
 
 
-def test_no_import_cycle():
-    graph = _graph()
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles of ``graph`` (Tarjan's strongly connected components of more than one
+    module)."""
     sys.setrecursionlimit(max(sys.getrecursionlimit(), 10000))
     index: dict[str, int] = {}
     low: dict[str, int] = {}
@@ -69,7 +87,7 @@ def test_no_import_cycle():
     on_stack: set[str] = set()
     cycles: list[list[str]] = []
 
-    def strong(v: str) -> None:  # Tarjan's strongly connected components
+    def strong(v: str) -> None:
         index[v] = low[v] = len(index)
         stack.append(v)
         on_stack.add(v)
@@ -93,7 +111,34 @@ def test_no_import_cycle():
     for v in graph:
         if v not in index:
             strong(v)
-    assert not cycles, cycles
+    return cycles
+
+
+def test_no_import_cycle():
+    assert not _cycles(_graph())
+
+
+def test_a_planted_absolute_import_cycle_is_found(tmp_path):
+    """The check reads absolute imports too: ``synthcompose.b`` importing ``synthcompose.a``
+    back by its full name (at run time, inside a function) closes a cycle it must see."""
+    pkg = tmp_path / "synthcompose"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from .sub import b\n")
+    (pkg / "sub" / "b.py").write_text("def f():\n    from synthcompose.a import g\n")
+    assert _cycles(_graph(pkg)) == [["synthcompose.a", "synthcompose.sub.b"]]
+    (pkg / "sub" / "b.py").write_text("def f():\n    import synthcompose.a\n")
+    assert _cycles(_graph(pkg)) == [["synthcompose.a", "synthcompose.sub.b"]]
+    (pkg / "sub" / "b.py").write_text("def f():\n    import os\n")
+    assert not _cycles(_graph(pkg))
+
+
+def test_every_top_level_module_has_a_layer():
+    top = {f.stem if f.suffix else f.name for f in PACKAGE.iterdir()
+           if (f.suffix == ".py" and f.stem != "__init__") or (f / "__init__.py").is_file()}
+    assert not top - set(STAGE_OF), sorted(top - set(STAGE_OF))
+    assert not set(STAGE_OF) - top, sorted(set(STAGE_OF) - top)
 
 
 def test_no_stage_imports_a_later_stage():

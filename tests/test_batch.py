@@ -13,10 +13,9 @@ from synthcompose.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.synthetic import make_sample
 
-from .helpers import ASSETS, OUT_KINDS, write_manifest  # noqa: F401 - others import them from here
+from .helpers import OUT_KINDS, H, W, write_manifest
 from .tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
 
-W, H = 640, 320
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ from synthcompose.batch import LOCK_NAME, OutputLock
 from synthcompose.cli import main
 from synthcompose.synthetic import make_sample
 
-from .test_batch import OUT_KINDS, write_manifest
+from .helpers import OUT_KINDS, write_manifest
 
 W, H = 640, 320
 
@@ -86,6 +86,7 @@ def test_second_batch_on_the_same_output_is_refused(data, tmp_path, capsys):
     assert (out / LOCK_NAME).exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [1.5, 3.0])
 def test_kill_9_then_resume_gives_the_uninterrupted_result(data, tmp_path, delay):
     root, ids, ref = data

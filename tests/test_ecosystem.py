@@ -6,21 +6,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from synthcompose import ecosystem
+from evaluation import ecosystem
 
-from .test_annotations import batch  # noqa: F401 (a fixture)
 from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
 
-def test_polygons_draw_back_with_json2labelimg_and_json2instanceimg(batch):  # noqa: F811
-    _, out, ids = batch
+def test_polygons_draw_back_with_json2labelimg_and_json2instanceimg(annotated_batch):
+    _, out, ids = annotated_batch
     for ident in ids:
         back = ecosystem.drawn_back(out, ident)
         assert back["labels"] >= LABELS_DRAWN_BACK and back["instances"] >= INSTANCES_DRAWN_BACK, (ident, back)
 
 
-def test_cscreatetrainidlabelimgs_ignores_only_what_the_labelids_ignore(batch):  # noqa: F811
-    _, out, ids = batch
+def test_cscreatetrainidlabelimgs_ignores_only_what_the_labelids_ignore(annotated_batch):
+    _, out, ids = annotated_batch
     result = ecosystem.train_id_ignore(out, ids)
     assert set(result) == {i.key for i in ids}
     for key, r in result.items():
@@ -29,13 +28,13 @@ def test_cscreatetrainidlabelimgs_ignores_only_what_the_labelids_ignore(batch): 
         assert r["different"] <= (1 - LABELS_DRAWN_BACK) * r["pixels"], (key, r)
 
 
-def test_cityscapes_evaluations_read_the_outputs(batch):  # noqa: F811
-    _, out, ids = batch
+def test_cityscapes_evaluations_read_the_outputs(annotated_batch):
+    _, out, ids = annotated_batch
     assert ecosystem.pixel_level_iou(out, ids) >= 0.99
     assert ecosystem.instance_level_ap(out, ids) == 1.0
     assert not hasattr(np, "in1d") or "in1d" in np.__dict__  # the NumPy 2.4 shim is taken away again
 
 
-def test_cocoeval_scores_the_coco_file_against_itself(batch):  # noqa: F811
-    _, out, _ = batch
+def test_cocoeval_scores_the_coco_file_against_itself(annotated_batch):
+    _, out, _ = annotated_batch
     assert ecosystem.coco_ap(out) == {"bbox": 1.0, "segm": 1.0}

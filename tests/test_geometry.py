@@ -7,14 +7,9 @@ from synthcompose.camera import Camera
 from synthcompose.errors import InputError
 from synthcompose.geometry import depth_to_disparity, disparity_to_depth, point_cloud
 
+from .helpers import make_camera
+
 from .tolerances import BACKPROJECTED_PLANE_M, DEPTH_ROUNDTRIP_DISPARITY_PX, FLOAT32_DISPARITY_PX, REPROJECTION_PX
-
-
-def make_camera(w=640, h=320, **kw) -> Camera:
-    base = dict(fx=700.0, fy=702.0, u0=w / 2 + 11.3, v0=h / 2 - 4.2, baseline=0.21, x=1.7, y=0.1, z=1.22,
-                yaw=0.02, pitch=0.04, roll=-0.005, width=w, height=h)
-    base.update(kw)
-    return Camera(**base)
 
 
 def test_disparity_depth_roundtrip():

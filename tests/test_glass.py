@@ -14,7 +14,7 @@ from synthcompose.models import MeshPart, Model
 from synthcompose.models.mesh import _finish_part
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 from .tolerances import GLASS_INTERIOR_REL, GLASS_REFLECTION_REL, GLASS_TRANSMISSION_ABS
 
 #: no sun: no highlight on the panes, the sky's light alone

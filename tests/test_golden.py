@@ -32,7 +32,7 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.synthetic import make_sample
 
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import GOLDEN_RGB_MAX_8BIT, GOLDEN_RGB_MAX_SHARE, GOLDEN_RGB_PIXEL_8BIT
 
 GOLDEN = Path(__file__).resolve().parent / "golden"

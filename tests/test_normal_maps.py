@@ -12,7 +12,7 @@ from synthcompose.colour import linear_to_srgb
 from synthcompose.models import load_model, vertex_tangents
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 from .tolerances import (FILE_TANGENT_MIN_COS, FLAT_NORMAL_MAP_8BIT, NORMAL_MAP_MIN_RATIO, NORMAL_MAP_SHADING_REL,
                          NORMAL_MAP_SHOWS_8BIT, NORMAL_SCALE_EFFECT_LINEAR, TANGENT_FLOAT, TANGENT_MIN_COS)
 

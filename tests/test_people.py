@@ -248,7 +248,7 @@ def test_renderer_keeps_a_bounded_number_of_models(gl_clean):
     from synthcompose.render import Lighting, RenderObject, Renderer
     from synthcompose.render.renderer import MODELS_KEPT
 
-    from .test_geometry import make_camera
+    from .helpers import make_camera
 
     path, _ = _first()
     renderer = Renderer(gl_clean)
@@ -272,7 +272,7 @@ def test_batch_poses_each_person_and_records_the_pose(tmp_path):
     from synthcompose.cli import main
     from synthcompose.synthetic import make_sample
 
-    from .test_batch import H, W
+    from .helpers import H, W
 
     root = tmp_path / "cityscapes"
     make_sample(root, count=2, width=W, height=H, seed=1)

@@ -11,11 +11,12 @@ from synthcompose.placement import (ALLOWED_SURFACES, PlacementRules, frame_nois
                                     strict_inside)
 from synthcompose.synthetic import random_scene, render_scene
 
+from .helpers import SIZES
+
 from .tolerances import (CAR_YAW_TO_ROAD_DEG, FOOTPRINT_ALLOWED_MIN, FOOTPRINT_GAP_SLACK_M, PENETRATION_M,
                          PREFILTER_MAX_SHARE, ground_z_tolerance)
 
 W, H = 1024, 512
-SIZES = {"car": (4.4, 1.85, 1.48), "person": (0.5, 0.6, 1.75), "traffic sign": (0.2, 0.8, 2.5)}
 
 
 #: street geometries: flat and straight; turned, uphill and cambered; turned the other way, downhill

@@ -3,7 +3,6 @@ frames, class balancing, disparity holes and the check-placement report."""
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -15,31 +14,17 @@ from synthcompose.geometry import disparity_to_depth, make_frame
 from synthcompose.surfaces import find_surfaces
 from synthcompose.labels import label_id
 from synthcompose.models import load_model
-from synthcompose.placement import PlacementRules, frame_noise, place_object, pose_matrix
+from synthcompose.placement import PlacementRules, frame_noise, place_object
 from synthcompose.render import Lighting, RenderObject, Renderer
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .tolerances import (BALANCE_FAVOURS_RATIO, CAR_YAW_TO_ROAD_DEG, GROUND_Z_M, OCCLUSION_DEPTH_MARGIN_M,
                          ROAD_FOUND_PRECISION_MIN, ROAD_FOUND_RECALL_MIN, ground_z_tolerance)
 
-from .test_batch import H, W, write_manifest
-from .test_placement import SIZES
+from .helpers import H, W, write_manifest
+from .helpers import SIZES, pose_behind_a_pole
 
 POLE, CAR, ROAD = label_id("pole"), label_id("car"), label_id("road")
-
-
-def pose_behind_a_pole(scene) -> np.ndarray:
-    """(4, 4) pose on the road 3 m behind a pole, across the line of sight (skips without one)."""
-    cam = scene.camera
-    for pole in scene.poles:
-        ray = np.array([pole.x - cam.x, pole.y - cam.y])
-        dist = np.hypot(*ray)
-        behind = np.array([cam.x, cam.y]) + ray / dist * (dist + 3.0)
-        if bool(scene.is_road(behind[0], behind[1])):
-            z = float(scene.ground_height(behind[0], behind[1]))
-            return pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
-                               math.atan2(ray[1], ray[0]) + math.pi / 2)
-    pytest.skip("no pole in front of the road in this scene")
 
 
 def test_real_pole_in_front_hides_the_inserted_car(gl_clean):

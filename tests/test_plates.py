@@ -13,7 +13,7 @@ from synthcompose.placement import pose_matrix
 from synthcompose.plates import draw_registration, plate_image
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 
 CAR = str(Path(__file__).resolve().parent.parent / "assets" / "models" / "openmaterial_car" / "vehicle_example.gltf")
 REGISTRATION = re.compile(r"^[A-Z]{1,3} [A-Z]{1,2} [1-9][0-9]{0,3}$")

@@ -22,7 +22,7 @@ from synthcompose.placements import placement_path, read_saved
 from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
 from synthcompose.synthetic import make_sample
 
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import (CHANGED_PIXEL_8BIT, OVERLAY_TEXT_CHANGED_MIN, PASS_CHANGE_MIN_SHARE, PREVIEW_MOVE_M,
                          PREVIEW_PAN_REL, SAVED_MATRIX_ABS, VIEW_CHANGE_MIN_SHARE, WINDOW_MAX_SHARE, WINDOW_MEAN_8BIT,
                          WINDOW_PIXEL_8BIT)

@@ -6,7 +6,7 @@ from synthcompose.models import load_model
 from synthcompose.placement import pose_matrix
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 from .tolerances import GL_PROJECTION_MATRIX_PX, PROJECTION_PX, SILHOUETTE_AREA_REL
 
 

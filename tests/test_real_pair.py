@@ -10,10 +10,10 @@ import pytest
 
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets
-from synthcompose.stereo_check import check_pair
+from evaluation.stereo_check import check_pair
 
 from .real_root import REAL, needs_real
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN
 
 pytestmark = needs_real

@@ -12,7 +12,7 @@ from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.polygons import frame_polygons
 
 from .real_root import REAL, needs_real
-from .test_annotations import _drawn_back
+from .helpers import drawn_back
 from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
 pytestmark = needs_real
@@ -24,7 +24,7 @@ def test_real_frames_labels_draw_back_from_their_polygons():
         src = read_image_set(root, ident)
         if not src.labelled:
             continue
-        labels, instances = _drawn_back(frame_polygons(src.label_ids, src.instance_ids), src.label_ids.shape)
+        labels, instances = drawn_back(frame_polygons(src.label_ids, src.instance_ids), src.label_ids.shape)
         assert (labels == src.label_ids).mean() >= LABELS_DRAWN_BACK, ident
         assert (instances == src.instance_ids.astype(np.int64)).mean() >= INSTANCES_DRAWN_BACK, ident
         # the real frames were drawn from polygons: a description of them misses almost nothing

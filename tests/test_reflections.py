@@ -10,7 +10,7 @@ import numpy as np
 from synthcompose.models import MeshPart, Model
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 
 LIGHT = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.5)
 

@@ -8,7 +8,7 @@ from scipy import ndimage
 from synthcompose.models import MeshPart, Model
 from synthcompose.render import Lighting, RenderObject, Renderer
 
-from .test_geometry import make_camera
+from .helpers import make_camera
 from .tolerances import (AA_ROWS_MIXED_MIN, AA_SHARE_STEP_MAX, EDGE_GROUND_EXCESS_LINEAR, PLANE_SEAM_LINEAR,
                          RESOLVE_FLOAT_EPS, RESOLVE_SUBTRACT_EPS, SHADING_MODES_EDGE_LINEAR,
                          SHADING_MODES_EDGE_QUANTILE, SHADING_MODES_INSIDE_LINEAR, SHADING_MODES_PLANE)

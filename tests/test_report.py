@@ -11,7 +11,7 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.synthetic import make_sample
 
-from .test_batch import write_manifest
+from .helpers import write_manifest
 
 
 def _browser() -> str | None:

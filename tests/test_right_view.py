@@ -15,10 +15,10 @@ from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.fileio import decode_disparity, read_png
 from synthcompose.right_view import carry_to_right
-from synthcompose.stereo_check import check_pair, seen_by_both
+from evaluation.stereo_check import check_pair, seen_by_both
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
-from .test_batch import write_manifest
+from .helpers import write_manifest
 from .tolerances import (PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN, RIGHT_CHANGE_MARGIN_PX,
                          RIGHT_CHANGE_OUTSIDE_MAX, RIGHT_PHOTO_MATCH_MARGIN)
 
@@ -189,7 +189,7 @@ def test_the_right_render_reuses_the_left_shadow_maps_with_the_same_pixels(gl_cl
     from synthcompose.placement import pose_matrix
     from synthcompose.render import Lighting, RenderObject, Renderer
 
-    from .test_geometry import make_camera
+    from .helpers import make_camera
 
     cam = make_camera()
     obj = RenderObject(load_model("builtin:box", (("length", 2.0),)),

@@ -3,6 +3,7 @@ clear error naming the file and the problem, and the rest of the batch completes
 from __future__ import annotations
 
 import errno
+import functools
 import json
 import os
 import random
@@ -20,15 +21,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import synthcompose.fileio as fileio
-from synthcompose.engines import FAULT_CRASH_ENV
+from synthcompose import engines
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
 from synthcompose.synthetic import make_sample
 
-from .helpers import assert_resume_matches, with_reference_run
-from .test_batch import ASSETS, OUT_KINDS, write_manifest
+from .helpers import assert_resume_matches, crashing_worker, with_reference_run
+from .helpers import ASSETS, OUT_KINDS, write_manifest
 from .tolerances import RSS_GROWTH_MB
 
 W, H = 320, 160
@@ -247,7 +248,7 @@ def test_disk_full_midway_loses_nothing(tmp_path, monkeypatch):
 def test_a_worker_that_dies_is_reported_and_replaced(tmp_path, monkeypatch):
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=7)
-    monkeypatch.setenv(FAULT_CRASH_ENV, ids[1].key)
+    monkeypatch.setattr(engines, "worker_entry", functools.partial(crashing_worker, ids[1].key))
     out = tmp_path / "out"
     assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out)), "--workers", "2",
                  "--no-progress"]) == 1
@@ -276,6 +277,7 @@ JSONISH = st.recursive(st.none() | st.booleans() | st.floats(allow_nan=True) | s
                        max_leaves=20)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.binary(max_size=400), kind=st.sampled_from(["rgb8", "gray8", "gray16"]))
 def test_fuzz_png_reader_raises_only_input_errors(tmp_path_factory, data, kind):
@@ -288,6 +290,7 @@ def test_fuzz_png_reader_raises_only_input_errors(tmp_path_factory, data, kind):
             assert str(p) in str(exc)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=JSONISH)
 def test_fuzz_camera_json_raises_only_input_errors(data):
@@ -298,6 +301,7 @@ def test_fuzz_camera_json_raises_only_input_errors(data):
             assert "cam.json" in str(exc)
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=JSONISH, text=st.text(max_size=60))
 def test_fuzz_manifest_and_json_raise_only_typed_errors(tmp_path_factory, data, text):
@@ -314,6 +318,7 @@ def test_fuzz_manifest_and_json_raise_only_typed_errors(tmp_path_factory, data, 
 
 
 # --------------------------------------------------------------------------- long runs, kills
+@pytest.mark.slow
 def test_kill_9_at_20_random_moments_then_resume_is_byte_identical(tmp_path):
     ids, manifest, out, ref = with_reference_run(tmp_path, size=(W, H))
     rnd = random.Random(20)
@@ -332,6 +337,7 @@ def test_kill_9_at_20_random_moments_then_resume_is_byte_identical(tmp_path):
     assert_resume_matches(ids, manifest, out, ref)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("streamed, count", [(False, 1000), (True, 200)])
 def test_memory_threads_and_open_files_stay_flat(tmp_path, streamed, count):
     """Resident memory, threads and open files do not grow with the image sets: one image set

@@ -1,7 +1,7 @@
 """Generated disparity measures like real Cityscapes SGM output.
 
 The ranges are those measured on four real development frames (2048x1024) with
-``benchmarks/stereo_stats.py`` (README, "Generated stereo"), widened by a few points; the
+``benchmarks/stereo_stats.py`` (docs/stereo.md, "Generated stereo and photo"), widened by a few points; the
 scenes here are 1024x512, a real frame scaled down: their noise is scaled with the width, and
 ``stereo_stats`` measures them with windows and steps scaled and gives pixel figures in pixels
 of a 2048 px frame, so the ranges apply as they are.
@@ -17,7 +17,7 @@ import pytest
 from synthcompose.dataset import read_image_set
 from synthcompose.labels import label_id
 from synthcompose.synthetic import make_sample, random_scene, render_scene
-from synthcompose.synthetic.stereo_stats import stereo_stats
+from evaluation.stereo_stats import stereo_stats
 
 from .tolerances import (CLEAN_PHOTO_NOISE, EGO_INVALID_MIN, EXACT_NORMALS_UP_MIN, EXACT_RESIDUAL_MAX_PX,
                          EXACT_VALID_MIN, FATTENING_MIN, FATTENING_REL, OCCLUSION_LEFT_INVALID_MIN,
@@ -120,7 +120,7 @@ def test_same_seed_same_bytes_and_exact_mode_unchanged(tmp_path):
 
 @pytest.mark.parametrize("key, lo, hi", [(key, lo, hi) for key, (lo, hi) in REAL_PHOTO_RANGES.items()])
 def test_photo_figures_in_the_real_ranges(frames, key, lo, hi):
-    from synthcompose.synthetic.photo_stats import photo_stats
+    from evaluation.photo_stats import photo_stats
 
     for _, arrays, _ in frames:
         value = photo_stats(arrays["rgb"], arrays["label_ids"]).get(key)
@@ -130,7 +130,7 @@ def test_photo_figures_in_the_real_ranges(frames, key, lo, hi):
 def test_clean_photo_keeps_the_shading(frames):
     """photo="clean" is the shading as it was (brighter, grey road, more noise); the labels,
     depth and exact disparity do not depend on the photo."""
-    from synthcompose.synthetic.photo_stats import photo_stats
+    from evaluation.photo_stats import photo_stats
 
     scene, arrays, _ = frames[0]
     clean = render_scene(scene, photo="clean", stereo="exact")

@@ -18,7 +18,7 @@ from synthcompose.fileio import dumps_json, write_bytes_atomic
 from synthcompose.synthetic import make_sample
 from synthcompose.writer import output_paths
 
-from .test_batch import ASSETS, write_manifest
+from .helpers import ASSETS, write_manifest
 
 W, H = 320, 160
 
@@ -232,6 +232,7 @@ def test_numbers_the_schema_lets_through_are_made_usable_or_refused(data, tmp_pa
 
 
 # ------------------------------------------------------------------ the wheel alone
+@pytest.mark.slow
 def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
     """The wheel (no checkout: its shaders and built-in models inside it) in a fresh venv; the
     third-party packages come from this environment (a .pth file), not the checkout."""

@@ -122,7 +122,7 @@ TILT_SHOWS_M = 0.3  # a graded street's road lies this far off z = 0 somewhere u
 
 # ------------------------------------------------------------------ generated stereo and photo (test_stereo.py)
 #: stereo_stats figures: the ranges measured on four real development frames (2048x1024,
-#: benchmarks/stereo_stats.py, README "Generated stereo"), widened by a few points
+#: benchmarks/stereo_stats.py, docs/stereo.md), widened by a few points
 REAL_STEREO_RANGES = {
     "valid": (0.78, 0.90),             # real 81.7-87.0 %
     "left_band_valid": (0.30, 0.56),   # real 36.7-50.1 %
@@ -152,10 +152,10 @@ FATTENING_REL = 0.3  # ... where within this of the pole's disparity, relative
 CLEAN_PHOTO_NOISE = 1.5  # photo_stats noise: the clean shading above, the realistic photo below
 
 # ------------------------------------------------------------------ light estimation (test_lighting.py)
-SKY_SHARE_ABS = 0.1  # estimated share of the ambient in up-facing light vs the scene's (README: within 0.1)
-LIGHT_CHROMA_REL = 0.10  # sky / sun chromaticity (luminance 1) vs the light's, relative per channel (README: 10 %)
+SKY_SHARE_ABS = 0.1  # estimated share of the ambient in up-facing light vs the scene's (docs: within 0.1)
+LIGHT_CHROMA_REL = 0.10  # sky / sun chromaticity (luminance 1) vs the light's, relative per channel (docs: 10 %)
 LIGHTING_FLOAT_ABS = 1e-6  # the Lighting convention's sums (up-facing light 1, the sun's share) in float64
-SUN_AZIMUTH_DEG = 20.0  # estimated vs true sun azimuth: right within it, wrong beyond it, degrees (README)
+SUN_AZIMUTH_DEG = 20.0  # estimated vs true sun azimuth: right within it, wrong beyond it, degrees (docs/light-and-look.md)
 SUN_FOUND_MIN = 36  # of the 48 random sunny scenes, a sun is found in at least this many (measured: 39)
 SUN_AZIMUTH_WITHIN_SHARE = 0.8  # share of the suns found (or of the sunlit-ground scenes) within SUN_AZIMUTH_DEG
 SUN_AZIMUTH_MEDIAN_DEG = 6.0  # median azimuth error over the 48 scenes (measured: 2.8), degrees
@@ -164,10 +164,13 @@ SHADOW_LINE_DEG = 5.0  # a straight shadow edge's direction vs the sun's azimuth
 SHADOW_LINE_AZIMUTH_DEG = 10.0  # sun azimuth decided by that edge vs the truth, degrees
 CONFIDENCE_MIN = 0.5  # the estimate's confidence on frames with evidence
 SUN_MASK_GROUND_MAX = 0.2  # share of the ground marked sunlit where the sun does not reach it
-NOISE_ESTIMATE_REL = 0.2  # estimated photo noise vs the added noise (+ 8-bit rounding), relative (README: 20 %)
+NOISE_ESTIMATE_REL = 0.2  # estimated photo noise vs the added noise (+ 8-bit rounding), relative (docs: 20 %)
 BLUR_ESTIMATE_REL = 0.2  # estimated blur vs hypot(render blur, applied sigma), relative
 OBJECT_BLUR_REL = 0.25  # blur the camera match gives objects vs the photo's applied blur, relative
-SHARP_OBJECT_BLUR_MAX_PX = 0.4  # a sharp photo's objects get at most this blur, pixels
+SHARP_OBJECT_BLUR_PX = 0.15  # an ideal photo's objects get sqrt(box edge^2 - render^2) within this, pixels
+#: inserted objects' edges vs the photo's, as estimate_blur measures them (pixels): the renderer's
+#: own edges without the camera match vs RENDER_BLUR_SIGMA, and with it vs the photo's
+OBJECT_EDGE_BLUR_PX = 0.12
 RECORDED_NOISE_REL = 0.25  # noise recorded by a batch vs the generator's, relative
 SAMPLED_NOISE_REL = 0.05  # camera match's noise (a quarter of the frame's tiles) vs the whole frame's, relative
 SAMPLED_BLUR_PX = 0.05  # its blur vs the whole frame's, pixels (measured on 2048 x 1024 frames: <= 0.03)
@@ -182,7 +185,7 @@ PALETTE_SUM_ABS = 1e-6  # a palette's shares sum to 1
 TONE_8BIT = 2.0  # toned object's median brightness / saturation (HSV, 0-255) vs the reference's median
 SHADOW_BLOTCHINESS_MEDIAN = 0.3  # look.shadow_blotchiness of the cars' shadows: a shadow, not depth noise
 SHADOW_BLOTCHINESS_MAX = 0.5  # ... worst car
-CONTACT_DEPTH_REL = 0.05  # look.contact_error: depth at the lowest points vs the ground's, relative (README: 5 %)
+CONTACT_DEPTH_REL = 0.05  # look.contact_error: depth at the lowest points vs the ground's, relative (docs: 5 %)
 REAL_TONE_IN_RANGE_MIN = 0.8  # real frames: share of inserted cars in the 10-90 % tone range of the frame's cars
 
 # ------------------------------------------------------------------ annotations (test_annotations.py re-exports these)

@@ -17,7 +17,7 @@ from ..errors import SynthComposeError
 from ..labels import label_id
 from ..manifest import Manifest
 from ..render import mask_box
-from ..record import DONE, NO_PLACEMENT, ObjectPose, ObjectRecord
+from ..record import ObjectPose, ObjectRecord, Status
 from ..writer import write_outputs, write_record
 from .place import Placed
 from .shade import Shaded
@@ -26,10 +26,10 @@ from .timing import timed
 
 @dataclass(frozen=True)
 class Outcome:
-    """What happened to one image set: ``done``, ``skipped`` (no valid placement) or ``failed``."""
+    """What happened to one image set (:class:`Status`: done, skipped for no valid placement, failed)."""
 
     key: str
-    status: str
+    status: Status
     reason: str | None = None
     objects: int = 0
     timings: dict[str, float] = field(default_factory=dict)
@@ -95,22 +95,22 @@ def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, flo
         write_outputs(m.output, ident, composed, s.camera_json, s.right_rgb)
         objects = object_records(s)
         h, w = composed.visible.shape
-        record = s.record.with_(objects=objects, status=DONE, views=("left", "right") if s.right_rgb is not None
+        record = s.record.with_(objects=objects, status=Status.DONE, views=("left", "right") if s.right_rgb is not None
                                 else ("left",), image={
             "file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h})
         # gtFine polygons and gtBbox3d files; before the record, which is written last
         write_frame_annotations(m.output, m.dataset, ident, objects, [o.placement.matrix for o in s.placed.objects],
                                 composed.visible, composed.label_ids, composed.instance_ids, s.camera)
         write_record(m.output, ident, record.to_json())
-    return Outcome(ident.key, "done", None, len(objects), timings)
+    return Outcome(ident.key, Status.DONE, None, len(objects), timings)
 
 
 def write_skipped(m: Manifest, ident: ImageSetId, placed: Placed, timings: dict[str, float]) -> Outcome:
     """No object found a place: the record alone, saying why."""
     with timed(timings, "write"):
-        write_record(m.output, ident, placed.record.with_(status=NO_PLACEMENT).to_json())
+        write_record(m.output, ident, placed.record.with_(status=Status.NO_PLACEMENT).to_json())
     reasons: Counter[str] = Counter()
     for f in placed.failures:
         reasons.update(f["rejections"])
     why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
-    return Outcome(ident.key, "skipped", f"no valid placement ({why})", timings=timings)
+    return Outcome(ident.key, Status.SKIPPED, f"no valid placement ({why})", timings=timings)

@@ -19,11 +19,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .dataset import ImageSetId
-from .fileio import decode_disparity, decode_rle, read_png
-from .labels import label_ids
-from .lighting.camera import estimate_noise
-from .record import read_record
+from synthcompose.dataset import ImageSetId
+from synthcompose.fileio import decode_disparity, decode_rle, read_png
+from synthcompose.labels import label_ids
+from synthcompose.lighting.camera import estimate_noise
+from synthcompose.record import read_record
 
 #: the matcher's settings: 5x5 windows, eight paths, a left-right check, a match 15 % better
 #: than the next, up to 256 px at 2048 px wide (an object 1.9 m from a Cityscapes camera; in

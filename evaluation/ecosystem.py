@@ -1,7 +1,7 @@
 """The outputs read by the field's own tools: cityscapesScripts' converters and evaluations,
 and pycocotools.
 
-Used by the tests and by ``benchmarks/eval_ecosystem.py`` (figures in the README). Each
+Used by the tests and by ``benchmarks/eval_ecosystem.py`` (figures in docs/ecosystem.md). Each
 check takes an output root (or a batch's image sets in it) and returns plain numbers.
 
 cityscapesScripts 2.3.0 (its latest release) predates NumPy 2.4 and Pillow 13 in places:
@@ -27,7 +27,7 @@ from typing import Iterator
 import cv2
 import numpy as np
 
-from .dataset import ImageSetId
+from synthcompose.dataset import ImageSetId
 
 
 def _train_ids() -> np.ndarray:

@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera
-from ..geometry import back_project, disparity_to_depth, make_frame
-from ..labels import HAS_INSTANCES, label_id
-from ..fileio import decode_disparity
+from synthcompose.camera import Camera
+from synthcompose.geometry import back_project, disparity_to_depth, make_frame
+from synthcompose.labels import HAS_INSTANCES, label_id
+from synthcompose.fileio import decode_disparity
 
 WINDOW = 31
 BANDS = ((5.0, 10.0), (10.0, 20.0), (20.0, 40.0))
@@ -149,7 +149,7 @@ def stereo_stats(disparity: np.ndarray, camera: Camera, label_ids: np.ndarray | 
     depth = disparity_to_depth(disparity, camera)
     points = _points(depth, camera)
     out["normals_up"] = normals_up_share(points, depth, road, step=max(1, int(round(2 / k))))
-    from ..placement import frame_noise  # not at import time: placement is the heavier package
+    from synthcompose.placement import frame_noise  # not at import time: placement is the heavier package
     out["sigma_d"] = frame_noise(make_frame(depth, label_ids, camera)).sigma_d * k
     zr = depth[road]
     hr = points[..., 2][road]
