@@ -33,7 +33,10 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
-from synthcompose import look, shadowlook  # noqa: E402
+from eval_look import GROUND, write_manifest  # noqa: E402
+
+from evaluation import shadowlook  # noqa: E402
+from synthcompose import look  # noqa: E402
 from synthcompose.batch import run_batch  # noqa: E402
 from synthcompose.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
 from synthcompose.fileio import decode_rle  # noqa: E402
@@ -43,8 +46,6 @@ from synthcompose.lighting import plansun  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 from synthcompose.surfaces import frame_for  # noqa: E402
-
-from eval_look import GROUND, write_manifest  # noqa: E402
 
 CAR = label_id("car")
 MIN_WIDTH = 150  # pixels: the cars the under and outline figures are taken on
@@ -125,7 +126,8 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         ang = [a for g in frames if g["frame"] == f["frame"] for a in g["angles"]]
         mark = "" if f["label"] == "?" else ("ok" if (f["label"] == "sunny") == f["sunny"] else "MISS")
         print(f"{f['frame']:<28} {f['label']:<9} {('sunny' if f['sunny'] else 'no'):<7} {f['edge_m'] or 0:7.2f} "
-              f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} {f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
+              f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
+              f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
               f"{' '.join(f'{a:.0f}' for a in ang)} {mark}")
     print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}")
     for c in cars:

@@ -43,7 +43,7 @@ import pytest
 
 from synthcompose.camera import Camera
 from synthcompose.models import MeshPart, Model
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .tolerances import HALF_STORAGE_ABS, HALF_STORAGE_REL, LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
 

@@ -12,18 +12,24 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose import shadowlook
+from evaluation import shadowlook
 from synthcompose.camera import Camera
 from synthcompose.colour import SRGB8_TO_LINEAR, linear_to_srgb
 from synthcompose.dataset import read_image_set
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import estimate_lighting, plansun
 from synthcompose.models.load import load_model
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 from synthcompose.synthetic import make_sample
 from synthcompose.synthetic.light import sunny_light
 
-from .tolerances import OUTLINE_SMOOTH_MAX, PENUMBRA_GROWTH_MIN, PLANE_BORDER_RATIO, SUN_AZIMUTH_AXIS_DEG, UNDER_REAL_RANGE
+from .tolerances import (
+    OUTLINE_SMOOTH_MAX,
+    PENUMBRA_GROWTH_MIN,
+    PLANE_BORDER_RATIO,
+    SUN_AZIMUTH_AXIS_DEG,
+    UNDER_REAL_RANGE,
+)
 
 CAR = str(Path(__file__).resolve().parent.parent / "assets" / "models" / "openmaterial_car" / "vehicle_example.gltf")
 # the Cityscapes camera at full resolution (the under measure's bands are in its pixels)

@@ -6,17 +6,31 @@ import math
 import numpy as np
 
 from ..camera import Camera
-from .light import (EXPOSURE_RANGE, LIT_GROUND_KNOWN, LIT_GROUND_MARGIN, LIT_GROUND_MIN_GAIN, LIT_PAIRS_LOW,
-    LUM, LightEstimate, MAX_SHADOW_LOG_RATIO, MIN_TWO_LEVEL_GAIN, ROAD_ALBEDO, ROAD_ID,
-    SHADOW_AGREEMENT_WEIGHT, SIDEWALK_ALBEDO, SIDEWALK_ID, SKY_ID, _unit)
-from .grid import _grid, smoothing_for
-from .shadows import _Mixture, _Occluders, _ShadowCue, _mixture, _shadow_cue, _shadow_score
-from .pairs import _GAMMAS, _KS, _PairCue, _pair_cue, _pair_fit, _pair_none, _pair_sun, _rho
-from .casters import CASTER_MAX_BRIGHT, CASTER_MIN_AGREEMENT, _caster_cue, _caster_sun
 from . import lines, plansun
+from .casters import CASTER_MAX_BRIGHT, CASTER_MIN_AGREEMENT, _caster_cue, _caster_sun
+from .grid import _grid, smoothing_for
+from .light import (
+    EXPOSURE_RANGE,
+    LIT_GROUND_KNOWN,
+    LIT_GROUND_MARGIN,
+    LIT_GROUND_MIN_GAIN,
+    LIT_PAIRS_LOW,
+    LUM,
+    MAX_SHADOW_LOG_RATIO,
+    MIN_TWO_LEVEL_GAIN,
+    ROAD_ALBEDO,
+    ROAD_ID,
+    SHADOW_AGREEMENT_WEIGHT,
+    SIDEWALK_ALBEDO,
+    SIDEWALK_ID,
+    SKY_ID,
+    LightEstimate,
+    _unit,
+)
 from .lines import _along_line, _shadow_line
+from .pairs import _GAMMAS, _KS, _pair_cue, _pair_fit, _pair_none, _pair_sun, _PairCue, _rho
 from .plan import completed_labels
-
+from .shadows import _Mixture, _mixture, _Occluders, _shadow_cue, _shadow_score, _ShadowCue
 
 #: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
 #: direction

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..labels import label_id
-from .light import GROUND_IDS, _LUT
+from .light import _LUT, GROUND_IDS
 
 ROAD, SIDEWALK, STANDING = label_id("road"), label_id("sidewalk"), label_id("static")
 
@@ -36,7 +36,8 @@ STANDING_HEIGHT = 0.3
 DEPTH_RATIO = (0.82, 1.08)
 RAISED_RATIO = 0.955
 _STEP = 2  # image subsampling of the point cloud (pixels)
-FOOT_REACH = 1.0  # metres: how near a shadow must come to a caster's foot (the ground nearer is left out: NEAR_STANDING)
+#: metres: how near a shadow must come to a caster's foot (the ground nearer is left out: NEAR_STANDING)
+FOOT_REACH = 1.0
 
 
 @dataclass(frozen=True, eq=False)

@@ -66,7 +66,8 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
         "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
         "u_sun_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sun_mat), "u_sky_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sky_mat),
         "u_map_metres": 2 * half, "u_sun_radius": SUN_RADIUS,
-        "u_under_map": _UNDER_UNIT, "u_ground_sky": _GROUND_SKY_UNIT, "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
+        "u_under_map": _UNDER_UNIT, "u_ground_sky": _GROUND_SKY_UNIT,
+        "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
         "u_under_range": light_range(half),  # metres the light maps' depth 0..1 spans
         "u_self_bias": 0.05 / light_range(half),
         "u_contact_height": CONTACT_HEIGHT, "u_contact_radius": CONTACT_RADIUS / (2 * half),

@@ -48,7 +48,8 @@ class RenderObject:
     model: Model
     vehicle_from_object: np.ndarray  # (4, 4)
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
-    plane_margin: float = PLANE_MARGIN  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    #: the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    plane_margin: float = PLANE_MARGIN
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
     recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
     plate: str | None = None  # the registration on its number plates (plates.py); None: blank plates

@@ -20,7 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .colour import LUM, SRGB8_TO_LINEAR
+from synthcompose.colour import LUM, SRGB8_TO_LINEAR
 
 #: rows under the object's lowest pixel: the band at its foot, the reference band further down
 UNDER_NEAR, UNDER_FAR = (2, 8), (20, 40)
@@ -85,7 +85,8 @@ def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndar
 def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray]) -> list[float | None]:
     """Per object (``masks``: each inserted object's pixels, as annotated: :func:`annotated`),
     the summed length of the straight lines in the ratio output / input near it (their midpoint
-    within half its width of its box) over its width; None for an empty mask. The ratio is blurred (:data:`OUTLINE_BLUR`),
+    within half its width of its box) over its width; None for an empty mask. The ratio is
+    blurred (:data:`OUTLINE_BLUR`),
     scaled by :data:`OUTLINE_SCALE` to 8 bits, Canny (:data:`OUTLINE_CANNY`) outside the objects
     grown by :data:`OUTLINE_GROW`, probabilistic Hough (:data:`OUTLINE_HOUGH`)."""
     ratio = _luminance(out) / np.maximum(_luminance(src), 1e-4)
