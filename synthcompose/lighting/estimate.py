@@ -200,10 +200,10 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     else:
         delta = _core_step(shadow, mix)
     cues["ground_shadow_core_log_ratio"] = delta
-    if sunny and not cues["sun_direction_sure"] and lit_ground is None and cast is None and shaded is None \
-            and plan_dir is None:
-        # the shadows show a sun but nothing shows where: a high sun, whose shadow falls short
-        # and under the object, is the least wrong guess (a shadow thrown the wrong way is seen)
+    if sunny and not cues["sun_direction_sure"] and lit_ground is None and cast is None and shaded is None:
+        # the shadows show a sun but nothing shows where (the plan's edges give an axis, but no
+        # caster its side and height): a high sun, whose shadow falls short and under the
+        # object, is the least wrong guess (a shadow thrown the wrong way is seen)
         el = max(el, UNSURE_ELEVATION)
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sunny else 0.0
     confidence = strength if sunny else ((1.0 - strength) if mix is not None else 0.3)
