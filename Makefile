@@ -45,7 +45,7 @@ check: system venv lint ## the fast tier: every test not marked slow (a few minu
 	$(PY) -m pytest -m "not slow"
 
 lint: venv ## ruff: line length and import order (pyproject.toml)
-	$(VENV)/bin/ruff check synthcompose tests benchmarks scripts
+	$(VENV)/bin/ruff check synthcompose evaluation tests benchmarks scripts
 
 clean: ## remove generated outputs (keeps the virtualenv)
 	rm -rf out $(SAMPLE)

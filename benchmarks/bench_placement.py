@@ -50,7 +50,7 @@ def bench_root(root: Path, manifest, objects: int, repeat: int, seed: int, label
         surf_ms = 1000 * (time.perf_counter() - t0)
         best, placed = float("inf"), 0
         for _ in range(repeat):
-            fresh = make_frame(frame.depth, frame.label_ids, frame.camera, frame.labelled)
+            fresh = make_frame(frame.depth, frame.label_ids, frame.camera, frame.labelled, frame.photo)
             rng = np.random.default_rng([seed, zlib.crc32(ident.key.encode())])
             done = []
             t0 = time.perf_counter()

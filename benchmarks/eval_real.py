@@ -4,6 +4,7 @@ the check-placement figures and the time per stage, and the totals.
 
     python benchmarks/eval_real.py ROOT [--truth LABELLED_ROOT] [--objects 3] [--seed 7] [--out DIR]
     python benchmarks/eval_real.py --generated 4      # the same on generated scenes, same run
+    python benchmarks/eval_real.py --generated 5 --streets traffic   # streets laid out as traffic uses them
 
 ROOT: a Cityscapes root (leftImg8bit/, disparity/, camera/, gtFine/ when labelled). --truth: a
 labelled root holding the same frames, to measure placements on an unlabelled root against the
@@ -31,7 +32,8 @@ from synthcompose.manifest import load_manifest  # noqa: E402
 
 
 def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path) -> Path:
-    """The bundled demo manifest's objects (model paths made absolute), on ``root``."""
+    """The bundled demo manifest's objects (its street cast; model paths made absolute), on
+    ``root``."""
     demo = REPO / "assets" / "demo" / "manifest.json"
     m = json.loads(demo.read_text())
     if "cast" in m:  # the built-in cast as its pools, each with its class (callers weigh them)
@@ -42,7 +44,7 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path)
         m["objects"] = m.get("objects", []) + [
             {"name": name, "model": f"cast:{sel}", "class": catalogue.pool(sel)[0].class_name, "weight": w}
             for name, sel, w in pools if catalogue.pool(sel)]
-    for obj in m["objects"]:
+    for obj in m.get("objects", []):
         if not obj["model"].startswith(("builtin:", "cast:")):
             obj["model"] = str((demo.parent / obj["model"]).resolve())
     splits = sorted({i.split for i in find_image_sets(root)})
@@ -170,6 +172,8 @@ def main(argv=None) -> int:
     ap.add_argument("root", nargs="?", type=Path, help="Cityscapes root (real frames)")
     ap.add_argument("--truth", type=Path, help="labelled root with the same frames (for an unlabelled ROOT)")
     ap.add_argument("--generated", type=int, default=0, help="also N generated scenes, 2048x1024, same run")
+    ap.add_argument("--streets", choices=("plain", "traffic"), default="plain",
+                    help="the generated scenes' streets (make-sample --streets)")
     ap.add_argument("--objects", type=int, default=3, help="objects asked per image set")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--out", type=Path, help="keep the outputs here (default: a temporary folder)")
@@ -187,7 +191,8 @@ def main(argv=None) -> int:
             from synthcompose.synthetic import make_sample
 
             gen = base / "generated"
-            make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=a.seed)
+            make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=a.seed,
+                        streets=None if a.streets == "plain" else a.streets)
             results["generated"] = evaluate(gen / "cityscapes", gen / "out", a.objects, a.seed, None, "generated")
     if len(results) == 2:
         r, g = results["real"], results["generated"]

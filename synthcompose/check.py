@@ -10,8 +10,15 @@ the record names:
                          the clearance band that the ground itself occupies)
 * occluded_fraction    : share of the rendered object hidden by the real scene (exact, from
                          the record)
-* yaw_to_road_deg      : angle between the object's heading and the local kerb direction
-                         (objects aligned along the road only)
+* yaw_to_road_deg      : angle between the object's heading and its lane's direction (0-180:
+                         a vehicle facing against its lane reads 180), for vehicles placed with
+                         traffic sense; the local kerb direction (either way, 0-90) for others
+                         aligned along the road
+* rule                 : the first placement rule the pose breaks, checked with the rules the
+                         record was placed by (``placement.check_pose``: the placement's own
+                         tests, the objects placed before it, and where it said it stands in
+                         traffic); None when it passes - the placement runs the same test on
+                         every pose it returns, so a disagreement is a bug
 """
 from __future__ import annotations
 
@@ -25,8 +32,12 @@ from .dataset import ImageSetId, labelled_twin, read_image_set
 from .fileio import write_json
 from .geometry import make_frame
 from .labels import label_id
-from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, footprint_grid, footprint_support,
-                        frame_noise, local_ground, penetration, road_line, scene_clearance)
+from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, check_pose, footprint_grid,
+                        footprint_support, frame_noise, local_ground, penetration, road_line, scene_clearance)
+from .placement.rules import rules_from
+from .placement.traffic import Traffic
+from .placement.verdict import lane_yaw_error
+from .placements import placement_from_pose
 from .record import ImageSetRecord, read_record
 from .surfaces import frame_for
 
@@ -47,6 +58,9 @@ class ObjectCheck:
     yaw_to_road_deg: float | None
     distance_m: float = float("nan")
     footprint_on_truth: float | None = None  # unlabelled sets with a labelled twin: share on the true labels
+    rule: str | None = None  # the placement rule the pose breaks (None: it passes them all)
+    role: str | None = None  # traffic role (moving, parked, walking, standing, sign)
+    direction: str | None = None  # with / against the ego vehicle
 
     @property
     def failures(self) -> list[str]:
@@ -59,6 +73,8 @@ class ObjectCheck:
             out.append("penetration")
         if self.yaw_to_road_deg is not None and self.yaw_to_road_deg > LIMITS["yaw_to_road_deg"]:
             out.append("yaw")
+        if self.rule is not None:
+            out.append("rules")
         return out
 
 
@@ -87,7 +103,9 @@ def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(
             t = read_image_set(truth_root, twin)
             truth = make_frame(frame.depth, t.label_ids, cam)
     noise = frame_noise(frame)
+    rules = rules_from(record.placement_rules) if record.placement_rules is not None else rules
     out = []
+    before: list = []
     for obj in record.objects:
         m = np.array(obj.pose.vehicle, float)
         l, w, h = obj.extents_m
@@ -117,18 +135,26 @@ def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(
             pts, _ = frame.rect_points(*rect)
             z = float(frame.to_optical(m[:3, 3][None])[0, 2])
             pen = penetration(pts, m, (l, w, h), scene_clearance(noise, z, rules.clearance))
-        # heading against the local road direction
+        # heading against the lane's direction (traffic sense) or the local kerb line
+        claim = Traffic.from_dict(obj.traffic)
         yaw_err = None
-        if obj.orientation in ("along-road", "parked"):
+        if claim is not None and claim.role in ("moving", "parked"):
+            yaw_err = lane_yaw_error(frame, (l, w, h), m, rules.traffic)
+        elif obj.orientation in ("along-road", "parked", "moving"):
             line = road_line(frame, allowed, m[:3, 3])
             if line is not None:
                 diff = math.atan2(m[1, 0], m[0, 0]) - line.angle
                 yaw_err = math.degrees(abs(math.asin(max(-1.0, min(1.0, math.sin(diff))))))
+        why = check_pose(frame, obj.class_name, (l, w, h), m, rules, obj.allowed_surfaces, before, obj.orientation,
+                         claim)
+        before.append(placement_from_pose(frame, obj.class_name, (l, w, h), m))
         dist = float(math.hypot(m[0, 3] - cam.x, m[1, 3] - cam.y))
         out.append(ObjectCheck(record.image_set, obj.index, obj.name, round(share, 4), round(gap, 4),
                                round(pen, 4), obj.occluded_fraction,
                                None if yaw_err is None else round(yaw_err, 2), round(dist, 2),
-                               None if truth is None else round(share_on(truth), 4)))
+                               None if truth is None else round(share_on(truth), 4),
+                               None if why is None else str(why), None if claim is None else claim.role,
+                               None if claim is None else claim.direction))
     return out
 
 
@@ -145,13 +171,16 @@ def check_output(out_root: Path, truth_root: Path | None = None) -> list[ObjectC
 
 
 def format_table(results: list[ObjectCheck]) -> str:
-    head = f"{'image set':<44}{'#':>3} {'object':<12}{'foot':>6}{'gap m':>8}{'pen m':>7}{'occl':>6}{'yaw°':>7}  verdict"
+    head = (f"{'image set':<44}{'#':>3} {'object':<12}{'foot':>6}{'gap m':>8}{'pen m':>7}{'occl':>6}{'yaw°':>7}"
+            f"  {'traffic':<18} verdict")
     lines = [head]
     for r in results:
         yaw = "-" if r.yaw_to_road_deg is None else f"{r.yaw_to_road_deg:.1f}"
         verdict = "ok" if not r.failures else "FAIL: " + ", ".join(r.failures)
+        traffic = f"{r.role or '-'}/{r.direction or '-'}"
         lines.append(f"{r.image_set:<44}{r.index:>3} {r.name[:12]:<12}{r.footprint_on_allowed:>6.2f}"
-                     f"{r.ground_gap_m:>8.3f}{r.penetration_m:>7.3f}{r.occluded_fraction:>6.2f}{yaw:>7}  {verdict}")
+                     f"{r.ground_gap_m:>8.3f}{r.penetration_m:>7.3f}{r.occluded_fraction:>6.2f}{yaw:>7}"
+                     f"  {traffic:<18} {verdict}" + (f" ({r.rule})" if r.rule else ""))
     bad = sum(bool(r.failures) for r in results)
     lines.append(f"{len(results)} objects checked, {bad} outside the limits {LIMITS}")
     return "\n".join(lines)

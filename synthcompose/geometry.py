@@ -116,6 +116,8 @@ class Frame:
 
     depth     : (H, W) float32 metres along the optical axis, inf where unknown
     label_ids : (H, W) uint8 (or labels derived from geometry for unlabelled frames)
+    photo     : (H, W, 3) uint8 sRGB of the left camera, or None (placement finds the lane
+                markings in it; without it the lanes follow the kerbs alone)
     The pixel grid doubles as a spatial index: every scene point inside a 3D box projects
     inside the box's 2D projection, so :meth:`rect_points` finds them without a search; the
     whole frame's point cloud (:attr:`cloud`) is built only when asked for (the preview).
@@ -125,6 +127,7 @@ class Frame:
     depth: np.ndarray
     label_ids: np.ndarray
     labelled: bool = True
+    photo: np.ndarray | None = field(default=None, repr=False)
     cache: dict = field(default_factory=dict, repr=False)  # per-frame results of later stages
 
     @property
@@ -175,5 +178,6 @@ class Frame:
         return point_cloud(self.depth, self.label_ids, self.camera)
 
 
-def make_frame(depth: np.ndarray, label_ids: np.ndarray, camera: Camera, labelled: bool = True) -> Frame:
-    return Frame(camera, depth, label_ids, labelled)
+def make_frame(depth: np.ndarray, label_ids: np.ndarray, camera: Camera, labelled: bool = True,
+               photo: np.ndarray | None = None) -> Frame:
+    return Frame(camera, depth, label_ids, labelled, photo)

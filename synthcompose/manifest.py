@@ -19,7 +19,7 @@ from .fileio import read_json
 from .labels import INSERTABLE
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
-from .placement.rules import GROUND_LEVEL, orientation_for, surfaces_for
+from .placement.rules import GROUND_LEVEL, ORIENTATIONS, TRAFFIC_SIDES, orientation_for, surfaces_for
 from .lighting.light import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
@@ -69,7 +69,7 @@ SCHEMA: dict[str, Any] = {
                     "forward": _AXIS,
                     "weight": {"type": "number", "exclusiveMinimum": 0, "maximum": 1e6},
                     "allowed_surfaces": {"type": "array", "items": {"type": "string"}, "minItems": 1},
-                    "orientation": {"enum": ["along-road", "parked", "face-camera", "random"]},
+                    "orientation": {"enum": list(ORIENTATIONS)},
                     "appearance": {"enum": ["varied", "model"]},
                 },
             },
@@ -89,6 +89,9 @@ SCHEMA: dict[str, Any] = {
                 "max_occluded_fraction": {"type": "number", "minimum": 0, "maximum": 1},
                 "allow_truncation": {"type": "boolean"},
                 "parked_kerb_gap": {"type": "number", "minimum": 0, "maximum": 10},
+                # which side of the road traffic keeps to (placement/traffic.py): German
+                # Cityscapes frames are right-hand; "left-hand" for other countries' data
+                "traffic": {"enum": list(TRAFFIC_SIDES)},
             },
         },
         "lighting": {

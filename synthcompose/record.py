@@ -14,7 +14,13 @@ camera match, appearance and camera-look entries are the documents their own mod
 (``to_dict``), kept as mappings.
 
 ``record_version`` counts changes of this layout; records without it are version 0 (read
-the same way: the layout did not change, the key was added).
+the same way: the layout did not change, the key was added). Version 2 added, per object,
+``traffic`` (where it stands in traffic: role moving / parked / walking / standing / sign, lane
+side, direction with or against the ego vehicle, its road-frame position, the pose hint of a
+person: ``placement.traffic.Traffic``), and per image set ``street`` (the street found: axis,
+carriageways, centre lines, markings, crossings; ``placement.street``) and ``placement_rules``
+(the rules the objects were placed by, which check-placement checks them by); version 1
+records read without them.
 """
 from __future__ import annotations
 
@@ -29,7 +35,7 @@ import numpy as np
 
 from .errors import InputError
 
-RECORD_VERSION = 1
+RECORD_VERSION = 2
 
 
 class Status(StrEnum):
@@ -119,6 +125,7 @@ class ObjectRecord:
     placement_check: Mapping[str, Any] | None  # saved poses: whether the rules accept them
     bbox_2d_amodal: Box | None = None  # the whole rendered silhouette
     mask_rle: Mapping[str, Any] | None = None  # the visible mask, COCO RLE
+    traffic: Mapping[str, Any] | None = None  # placement.traffic.Traffic.to_dict(); None: no traffic sense
 
     def to_json(self) -> dict[str, Any]:
         d = {"index": self.index, "name": self.name, "model": self.model, "class": self.class_name,
@@ -138,6 +145,8 @@ class ObjectRecord:
         if self.mask_rle is not None:
             d["bbox_2d_amodal"] = None if self.bbox_2d_amodal is None else list(self.bbox_2d_amodal)
             d["mask_rle"] = dict(self.mask_rle)
+        if self.traffic is not None:
+            d["traffic"] = dict(self.traffic)
         return d
 
     @classmethod
@@ -152,7 +161,7 @@ class ObjectRecord:
                    int(d["rendered_pixels"]), float(d["occluded_fraction"]), bool(d["truncated"]),
                    dict(d.get("placement", {})), dict(d.get("appearance", {})), d.get("camera_look"),
                    str(d.get("placement_source", "random")), d.get("placement_check"),
-                   None if amodal is None else tuple(int(v) for v in amodal), d.get("mask_rle"))
+                   None if amodal is None else tuple(int(v) for v in amodal), d.get("mask_rle"), d.get("traffic"))
 
 
 @dataclass(frozen=True)
@@ -177,6 +186,8 @@ class ImageSetRecord:
     status: Status | None = None
     record_version: int = field(default=RECORD_VERSION)
     views: tuple[str, ...] = ("left",)  # the photos the objects were composed into: "left", and "right"
+    street: Mapping[str, Any] | None = None  # placement.street.Street.to_dict(): the street found
+    placement_rules: Mapping[str, Any] | None = None  # the PlacementRules the objects were placed by
 
     def with_(self, **changes) -> "ImageSetRecord":
         return replace(self, **changes)
@@ -188,7 +199,7 @@ class ImageSetRecord:
                              "labels": self.labels, "stereo_noise": dict(self.stereo_noise),
                              "lighting": dict(self.lighting), "objects": [o.to_json() for o in self.objects],
                              "not_placed": [dict(f) for f in self.not_placed]}
-        for key in ("placement_file", "camera_match", "image"):
+        for key in ("placement_file", "camera_match", "image", "street", "placement_rules"):
             value = getattr(self, key)
             if value is not None:
                 d[key] = dict(value)
@@ -209,7 +220,7 @@ class ImageSetRecord:
                        tuple(ObjectRecord.from_json(o) for o in d.get("objects", [])),
                        tuple(d.get("not_placed", [])), d.get("placement_file"), d.get("camera_match"), d.get("image"),
                        None if d.get("status") is None else Status(d["status"]), int(d.get("record_version", 0)),
-                       tuple(str(v) for v in d.get("views", ["left"])))
+                       tuple(str(v) for v in d.get("views", ["left"])), d.get("street"), d.get("placement_rules"))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
             raise RecordError(path or Path("<record>"),
                               f"is not a synthcompose record ({type(exc).__name__}: {exc})") from None

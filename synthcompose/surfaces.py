@@ -40,6 +40,14 @@ LEVEL_SIDEWALK = True
 ENCLOSED_PX = 24
 #: level ground: within this height of the road profile (or the noise band), metres
 LEVEL_BAND = 0.05
+#: the road's crown is fitted within this far across from the car, metres
+CROWN_REACH = 3.5
+#: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
+GRASS_SATURATION, GRASS_YELLOW = 18, 5
+#: a sidewalk touches the road within this many working pixels
+TOUCH_PX = 4
+#: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
+FOOT_REACH = 0.6
 
 
 @dataclass(frozen=True)
@@ -151,19 +159,24 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # grass is green against the road: Cityscapes photos are greenish grey all over, so the
     # test is relative to the saturation of the level ground in front of the car
     s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
-    green = (hsv[..., 0] >= 30) & (hsv[..., 0] <= 90) & (hsv[..., 1] >= s_road + 25)
+    b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
+    green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
+                                                          | (lab[..., 2] >= b_road + GRASS_YELLOW))
     road = _road(level & ~green, seed & ~green, lab)
     # level ground with road on both sides along its row is the road's (lane markings, patches)
     road |= level & ~road & _between(road, ENCLOSED_PX)
-    side = raised & ~green & ~road
+    # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
+    foot = _object_foot(smooth, z, sub.fy)
+    side = raised & ~green & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
-        side |= level & flat & ~green & ~road & ~_road_coloured(lab, seed)
+        side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, seed)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
     # sides along the row (a traffic island's noise, a manhole) are left out
     side &= ~_between(road, ENCLOSED_PX)
-    near_road = cv2.dilate(road.astype(np.uint8), np.ones((25, 25), np.uint8)).astype(bool)
+    # beside the road: touching it (a kerb between them), not across grass or a wall
+    near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
     n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
     if n > 1:
         touches = np.zeros(n, bool)
@@ -190,7 +203,9 @@ def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarr
     with np.errstate(invalid="ignore", divide="ignore"):
         z = np.where(np.isfinite(height) & (d > 0), fb / d, np.nan)
     lateral = -(u - cam.u0) * z / cam.fx
-    ok = np.isfinite(height) & (np.abs(height) < 0.25) & (z > 4) & (z < 30)
+    # the carriageway around the car only: a kerbside pavement 10-15 cm up must not bend the
+    # crown up to it (it would read as road); beyond CROWN_REACH the crown is held
+    ok = np.isfinite(height) & (np.abs(height) < 0.1) & (z > 4) & (z < 30) & (np.abs(lateral) < CROWN_REACH)
     if ok.sum() < 500:
         return np.zeros_like(height)
     sel = np.flatnonzero(ok.ravel())[:: max(1, int(ok.sum() // 20000))]
@@ -203,8 +218,25 @@ def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarr
         res = hv - A @ coef
         keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.02)
     lat = np.nan_to_num(lateral)
-    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * lat ** 2
+    held = np.clip(lat, -CROWN_REACH, CROWN_REACH)
+    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * held ** 2
     return tilt.astype(np.float32)
+
+
+def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:
+    """(h, w) bool: pixels at the foot of something standing (a car, a wall, a person): the
+    pixel FOOT_REACH metres above them in the image (at their depth) is 0.4-2.5 m high and at
+    about their depth."""
+    h, w = height.shape
+    v, u = np.nonzero(np.isfinite(height) & np.isfinite(z) & (height > -0.2) & (height < 0.5))
+    zz = z[v, u]
+    up = np.clip(v - np.clip(np.rint(FOOT_REACH * fy / zz), 2, 80).astype(np.int64), 0, h - 1)
+    above_h, above_z = height[up, u], z[up, u]
+    with np.errstate(invalid="ignore"):
+        hit = (above_h >= 0.4) & (above_h <= 2.5) & (np.abs(above_z - zz) < 0.1 * zz)
+    out = np.zeros((h, w), bool)
+    out[v[hit], u[hit]] = True
+    return out
 
 
 def _between(mask: np.ndarray, reach: int) -> np.ndarray:
@@ -256,6 +288,6 @@ def frame_for(image_set, depth: np.ndarray | None = None):
     if depth is None:
         depth = disparity_to_depth(image_set.disparity, cam)
     if image_set.labelled:
-        return make_frame(depth, image_set.label_ids, cam), None
+        return make_frame(depth, image_set.label_ids, cam, photo=image_set.rgb), None
     found = find_surfaces(image_set.disparity, image_set.rgb, cam)
-    return make_frame(depth, found.labels, cam, labelled=False), found
+    return make_frame(depth, found.labels, cam, labelled=False, photo=image_set.rgb), found

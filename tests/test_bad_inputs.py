@@ -386,6 +386,7 @@ def test_worker_counts_are_one_per_core_for_0_and_capped_by_cores_and_memory(mon
     assert engines.worker_count(4)[0] == 1  # never none
 
 
+@pytest.mark.slow
 def test_a_huge_worker_count_runs_with_what_the_machine_allows(sample, tmp_path, caplog):
     import logging
 
@@ -402,6 +403,7 @@ def test_a_huge_worker_count_runs_with_what_the_machine_allows(sample, tmp_path,
 
 
 # ---------------------------------------------------------------------------------- stopping
+@pytest.mark.slow
 @pytest.mark.parametrize("to", ["parent", "group"])
 def test_sigterm_with_workers_stops_as_ctrl_c_does_and_the_resume_is_byte_identical(tmp_path, to):
     ids, manifest, out, ref = with_reference_run(tmp_path, box_manifest)

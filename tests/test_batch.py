@@ -186,6 +186,7 @@ def test_bad_manifest_names_the_field(tmp_path, capsys, change, field):
     assert str(manifest) in err and field in err
 
 
+@pytest.mark.slow
 def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, monkeypatch):
     """Pipeline.stream (read ahead, write behind, on threads) gives the outcomes in order and
     the same bytes as processing each image set alone; a read failure and a write failure

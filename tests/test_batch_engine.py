@@ -35,6 +35,7 @@ def _files(out: Path, ids) -> dict[str, bytes]:
     return {f"{i.key}:{k}": i.path(out, k).read_bytes() for i in ids for k in OUT_KINDS}
 
 
+@pytest.mark.slow
 def test_two_workers_give_byte_identical_outputs(data, tmp_path):
     root, ids, ref = data
     out = tmp_path / "out"
@@ -44,6 +45,7 @@ def test_two_workers_give_byte_identical_outputs(data, tmp_path):
     assert summary["engine"] == "process" and summary["workers"] == 2 and summary["done"] == len(ids)
 
 
+@pytest.mark.slow
 def test_ray_actors_give_the_same_outputs(data, tmp_path):
     pytest.importorskip("ray")
     root, ids, ref = data
@@ -55,6 +57,7 @@ def test_ray_actors_give_the_same_outputs(data, tmp_path):
     assert json.loads((out / "summary.json").read_text())["engine"] == "ray"
 
 
+@pytest.mark.slow
 def test_resume_redoes_only_what_is_missing(data, tmp_path):
     root, ids, ref = data
     out = tmp_path / "out"

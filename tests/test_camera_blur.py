@@ -35,6 +35,7 @@ def sample(tmp_path_factory):
     return root, make_sample(root, count=1, width=W, height=H, seed=4)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("match", [False, True])
 def test_inserted_cars_edges_are_as_sharp_as_the_photos(sample, tmp_path, match):
     root, ids = sample

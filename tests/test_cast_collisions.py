@@ -70,6 +70,7 @@ def deepest_inside(points: np.ndarray, other: np.ndarray) -> float:
     return -float((points @ eq[:, :3].T + eq[:, 3]).max(axis=1).min())
 
 
+@pytest.mark.slow
 def test_no_two_objects_of_the_street_cast_interpenetrate(placed_sets):
     pairs = 0
     classes = set()

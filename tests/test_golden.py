@@ -39,7 +39,7 @@ GOLDEN = Path(__file__).resolve().parent / "golden"
 UPDATE = os.environ.get("SYNTHCOMPOSE_UPDATE_GOLDEN") == "1"
 W, H = 256, 128
 OBJECTS = [
-    {"name": "box", "model": "builtin:box", "class": "car", "size": {"length": 4.0}, "weight": 2},
+    {"name": "box", "model": "builtin:box", "class": "car", "size": {"width": 1.8}, "weight": 2},  # a lane holds it
     {"name": "sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5}},
 ]
 #: case -> make_sample seed: the batch puts a box and a sign (a class with instances, one

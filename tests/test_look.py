@@ -124,6 +124,7 @@ def _objects(root: Path, out: Path):
         yield src, res, rec, masks
 
 
+@pytest.mark.slow
 def test_shadows_are_soft_and_objects_stand_on_the_ground(composed):
     root, out = composed
     blots, contacts, n = [], [], 0

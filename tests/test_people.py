@@ -189,6 +189,7 @@ def _inside_slices(torso: np.ndarray, points: np.ndarray, dz: float = 0.03, shri
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("entry", ENTRIES, ids=[e.parent.name for e in ENTRIES])
 def test_arms_stay_outside_the_torso(entry):
     skin = _skin(entry)
@@ -244,6 +245,7 @@ def test_people_clothes_are_recoloured_and_skin_is_not():
 
 
 # ---------------------------------------------------------------------- the renderer's cache
+@pytest.mark.slow
 def test_renderer_keeps_a_bounded_number_of_models(gl_clean):
     from synthcompose.render import Lighting, RenderObject, Renderer
     from synthcompose.render.renderer import MODELS_KEPT

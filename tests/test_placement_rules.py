@@ -114,8 +114,9 @@ def test_unlabelled_image_sets_in_a_batch(tmp_path):
 
     cv2.imwrite(str(placeholder), np.zeros((H, W), np.uint8))  # placeholder labels: nothing marked
     out = tmp_path / "out"
+    # a box of a car's size (a 4 m cube fits no lane)
     manifest = write_manifest(tmp_path / "m.json", root, out, objects=[
-        {"model": "builtin:box", "class": "car", "size": {"length": 4.0}}])
+        {"model": "builtin:box", "class": "car", "size": {"width": 1.8}}])
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     for ident in ids:
         record = json.loads(ident.path(out, "record").read_text())

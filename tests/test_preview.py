@@ -91,6 +91,7 @@ def _loaded(m, frame: str):
         s.close()
 
 
+@pytest.mark.slow
 def test_saved_placement_is_used_by_a_later_batch(dataset, manifest, tmp_path):
     root, ids = dataset
     m = load_manifest(manifest)
@@ -352,6 +353,7 @@ def _same(img, ref, where=None):
     assert diff.mean() < WINDOW_MEAN_8BIT and over < WINDOW_MAX_SHARE, (diff.mean(), over)
 
 
+@pytest.mark.slow
 def test_window_shows_the_pass_the_keys_choose_as_the_headless_renderer_does(window_run):
     manifest, ident, got = window_run
     assert "1: composed" in str(got["title_before"]) and "2: Irpv" in str(got["title"])

@@ -18,6 +18,7 @@ def _browser() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 
 
+@pytest.mark.slow
 def test_report_renders_in_a_headless_browser_with_its_images(tmp_path):
     root = tmp_path / "cs"
     ids = make_sample(root, count=2, width=640, height=320, seed=3)

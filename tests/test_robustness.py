@@ -140,7 +140,7 @@ def test_every_kind_of_bad_image_set_is_reported_and_the_rest_completes(tmp_path
         expected[ident.key] = (name, f"{apply(root, ident)}: ", text)
     out = tmp_path / "out"
     manifest = write_manifest(tmp_path / "m.json", root, out, objects=[
-        {"model": "builtin:box", "class": "car", "size": {"length": 4.0}}], placement={"distance": [5, 30]})
+        {"model": "builtin:box", "class": "car", "size": {"width": 1.8}}], placement={"distance": [5, 30]})
     assert main(["batch", str(manifest), "--no-progress"]) == 1
     printed = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
@@ -245,6 +245,7 @@ def test_disk_full_midway_loses_nothing(tmp_path, monkeypatch):
         assert all(ident.path(out, k).is_file() for k in OUT_KINDS)
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_is_reported_and_replaced(tmp_path, monkeypatch):
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=7)

@@ -280,6 +280,7 @@ def test_the_wheel_alone_runs_make_sample_and_the_demo_manifest(tmp_path):
     assert listed[0].startswith(str(site)) and int(listed[1]) == len(list((repo / "assets" / "cast").glob("*/*/entry.json")))
 
 
+@pytest.mark.slow
 def test_sigterm_with_workers_prints_no_traceback(tmp_path):
     import signal
     import subprocess

@@ -96,6 +96,12 @@ NOISY_SCENE_SIGMA_D_PX = (0.2, 0.45)  # measured sigma_d of 0.3 px patchy noise 
 SGM_PLACED_MIN = 0.75  # share of asked objects placed on generated SGM-noisy frames
 REAL_PLACED_MIN = 0.95  # share of asked objects placed on real frames
 
+# ------------------------------------------------------------------ traffic sense (generated streets)
+STREET_CENTRE_M = 0.3  # the centre line found vs the drawn one, across the street
+STREET_KERB_M = 0.5  # a kerb line found vs the drawn kerb (parked cars hide much of it)
+LANE_CENTRED_M = 0.3  # a moving vehicle's centre vs its true lane's centre (issue: within 0.3 m)
+TRAFFIC_PLACED_MIN = 0.5  # share of asked vehicles placed in a lane of the asked kind on one frame
+
 # ------------------------------------------------------------------ surfaces found without labels
 ROAD_FOUND_PRECISION_MIN = 0.9  # generated frames: what is called road is road
 ROAD_FOUND_RECALL_MIN = 0.7  # generated frame, exact disparity: share of the road found

@@ -73,16 +73,17 @@ def _sign(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
 
 
 def cast_model(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
-               rng: np.random.Generator) -> tuple[Model, CastDraw]:
+               rng: np.random.Generator, pose: str | None = None) -> tuple[Model, CastDraw]:
     """The model of ``entry`` for one object (at ``size`` when the manifest gives one, else at
-    the entry's real size) and what the record says of it."""
+    the entry's real size) and what the record says of it. ``pose``: a person's pose kind
+    (``standing`` / ``walking``; None: any)."""
     if entry.model == SIGN_MODEL:
         model, sign = _sign(entry, size, rng)
         return model, CastDraw(entry, {"model": entry.id, "sign": sign})
     real = size or entry.size
     if entry.group == "people":
-        model, pose = posed_person(entry, real, rng)
-        return model, CastDraw(entry, {"model": entry.id, "body": entry.body_dict, "pose": pose})
+        model, posed = posed_person(entry, real, rng, pose)
+        return model, CastDraw(entry, {"model": entry.id, "body": entry.body_dict, "pose": posed})
     return load_model(entry.model, real, entry.up, entry.forward), CastDraw(entry, {"model": entry.id})
 
 

@@ -5,7 +5,11 @@ frame's stereo error and the tolerances that follow it), ``ground`` (robust loca
 planes over a metric neighbourhood), ``road`` (kerb lines and the road's direction), ``boxes``
 (boxes, footprints, collisions, visibility), ``poses`` (the rules of one pose, and
 :func:`check_pose` for a pose given outright) and ``search`` (drawing candidates:
-:func:`place_object`).
+:func:`place_object`). Traffic sense (docs/placement.md): ``markings`` (lane lines and zebra
+stripes in the photo), ``street_lines`` and ``street`` (the street's axis, lines, carriageways,
+centre line, crossings), ``parked`` (the frame's own parked rows), ``lanes`` (lanes and their
+directions), ``traffic`` (a candidate's place in traffic: :class:`Traffic`) and ``verdict``
+(the traffic rules of a finished pose, part of :func:`check_pose`).
 """
 from .boxes import (FOOTPRINT_SAMPLES, _visibility, footprint_corners, footprint_grid, footprints_overlap,
                     penetration, pose_matrix, prefilter, rays_hit_box, strict_inside)
@@ -17,6 +21,8 @@ from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, INLIER_BAND, KERB_CLEARANCE,
                     ORIENTATIONS, POSE_GROUND_SEARCH, RULE_OF, Placement, PlacementResult, PlacementRules, Rejection,
                     box_corners, label_mask)
 from .search import place_object
+from .street import Street, find_street
+from .traffic import Traffic
 
 __all__ = [
     "ALLOWED_SURFACES", "FOOTPRINT_SAMPLES", "GROUND_LEVEL", "INLIER_BAND", "KERB_CLEARANCE", "MAX_PENETRATION",
@@ -25,4 +31,5 @@ __all__ = [
     "fit_ground", "fit_road_line", "footprint_corners", "footprint_grid", "footprint_support", "footprints_overlap",
     "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix",
     "prefilter", "rays_hit_box", "road_line", "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
+    "Street", "Traffic", "find_street",
 ]

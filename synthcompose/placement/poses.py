@@ -9,17 +9,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from ..geometry import Frame
 from ..labels import label_id
-from .boxes import (_hides_others, _visibility, box_corners, footprint_corners, footprint_grid, footprints_overlap,
-                    penetration, strict_inside)
+from .boxes import (_box_samples, _hides_others, _visibility, box_corners, footprint_corners, footprint_grid,
+                    footprints_overlap, penetration, rays_hit_box, strict_inside)
 from .ground import GroundFit, local_ground
 from .noise import StereoNoise, stereo_noise
 from .road import surface_edges
+if TYPE_CHECKING:
+    from .traffic import Traffic
 from .rules import (GROUND_LEVEL, KERB_CLEARANCE, MAX_PENETRATION, POSE_GROUND_SEARCH,
                     SUPPORT_BAND, Placement, PlacementRules, Rejection, label_mask, surfaces_for)
 
@@ -31,6 +33,11 @@ SEEN_TOL_REL, SEEN_TOL_ABS = 0.02, 0.05
 STEP_HEIGHT = 0.3
 #: the scene test samples the box's pixel rectangle at about this spacing, metres
 SCENE_SPACING = 0.03
+#: people stand at least this far apart (unless the object gap asks for more), metres
+PEOPLE_GAP = 0.5
+#: a sign is never hidden behind an inserted object beyond this share of it
+SIGN_HIDDEN = 0.1
+SIGNS = ("traffic sign", "traffic light")
 
 
 def frame_noise(frame: Frame) -> StereoNoise:
@@ -63,7 +70,13 @@ def footprint_support(frame: Frame, m: np.ndarray, local: np.ndarray, allowed_id
     tol = noise.depth_band(foot_d, SEEN_TOL_REL * foot_d + SEEN_TOL_ABS)
     seen = finite & ((scene_d >= foot_d - tol) | (height < STEP_HEIGHT))
     allowed = label_mask(allowed_ids)[frame.label_ids[fv, fu]]
-    on_plane = finite & (np.abs(height) <= noise.height_band(foot_d, band_floor))
+    # supported: the real ground at the sample is on the pose's plane, and there (at its
+    # depth): ground of the same height farther away is no support (a footprint floating over
+    # a lower road towards a sidewalk behind it)
+    # (along the ray, the ground seen at a grazing angle moves by the height band's worth)
+    band = noise.height_band(foot_d, band_floor)
+    at_foot = np.abs(z - foot_d) <= np.maximum(tol, 1.5 * band * foot_d / noise.camera_height)
+    on_plane = finite & at_foot & (np.abs(height) <= band)
     return {"on_screen": on_screen, "seen": seen, "allowed": allowed, "on_plane": on_plane}
 
 
@@ -82,14 +95,16 @@ class PoseTests:
     # footprint_margin beyond
     reach: float  # half-side of the square searched for ground points, metres
     noise: StereoNoise
+    class_name: str = ""
 
     @classmethod
-    def of(cls, frame: Frame, extents, rules: PlacementRules, allowed: Sequence[str]) -> "PoseTests":
+    def of(cls, frame: Frame, extents, rules: PlacementRules, allowed: Sequence[str],
+           class_name: str = "") -> "PoseTests":
         allowed_ids = np.array([label_id(n) for n in allowed])
         l, w, _ = extents
         grid = np.concatenate([footprint_grid(l, w), footprint_grid(l, w, rules.footprint_margin)])
         return cls(frame, extents, rules, tuple(allowed), allowed_ids, surface_edges(frame, allowed_ids), grid,
-                   math.hypot(l, w) / 2 + 0.5, frame_noise(frame))
+                   math.hypot(l, w) / 2 + 0.5, frame_noise(frame), class_name)
 
     def depth_of(self, point: np.ndarray) -> float:
         return float(self.frame.to_optical(np.asarray(point, float)[None])[0, 2])
@@ -180,13 +195,40 @@ class PoseTests:
             why = Rejection("would hide an object placed before",
                             f"it would leave one more than {rules.max_occluded_fraction:.0%} hidden")
             return why, in_image, hidden
-        return None, in_image, hidden
+        return self._signs_seen(m, others), in_image, hidden
 
-    def overlap(self, m: np.ndarray, other_prints: Sequence[np.ndarray]) -> Rejection | None:
-        """No overlap with the footprints (grown by half the object gap) of objects placed before."""
-        mine = footprint_corners(m, self.extents, self.rules.object_gap / 2)
+    def _signs_seen(self, m: np.ndarray, others: Sequence[Placement]) -> Rejection | None:
+        """A sign is never hidden behind an inserted object: neither this one behind those
+        placed before, nor one placed before behind this one (beyond SIGN_HIDDEN of it)."""
+        cam = self.frame.camera.position
+        if self.class_name in SIGNS and others:
+            samples = _box_samples(m, self.extents)
+            behind = np.zeros(len(samples), bool)
+            for o in others:
+                behind |= rays_hit_box(cam, samples, o.matrix, o.extents)
+            if behind.mean() > SIGN_HIDDEN:
+                return Rejection("sign hidden behind an inserted object", f"{behind.mean():.0%} of it")
+        for o in others:
+            if o.class_name in SIGNS:
+                newly = rays_hit_box(cam, _box_samples(o.matrix, o.extents), m, self.extents).mean()
+                if newly > SIGN_HIDDEN:
+                    return Rejection("would hide a sign placed before", f"{newly:.0%} of it")
+        return None
+
+    def overlap(self, m: np.ndarray, other_prints: Sequence[np.ndarray],
+                others: Sequence[Placement] = ()) -> Rejection | None:
+        """No overlap with the footprints (grown by half the object gap) of objects placed
+        before; people keep at least PEOPLE_GAP apart."""
+        gap = self.rules.object_gap
+        mine = footprint_corners(m, self.extents, gap / 2)
         if any(footprints_overlap(mine, o) for o in other_prints):
-            return Rejection("overlaps another inserted object", f"closer than {self.rules.object_gap} m")
+            return Rejection("overlaps another inserted object", f"closer than {gap} m")
+        if self.class_name == "person" and gap < PEOPLE_GAP:
+            mine = footprint_corners(m, self.extents, PEOPLE_GAP / 2)
+            for o in others:
+                if o.class_name == "person" and footprints_overlap(mine, footprint_corners(o.matrix, o.extents,
+                                                                                           PEOPLE_GAP / 2)):
+                    return Rejection("overlaps another inserted object", f"people closer than {PEOPLE_GAP} m")
         return None
 
     def scene(self, m: np.ndarray) -> Rejection | None:
@@ -216,12 +258,17 @@ def scene_clearance(noise: StereoNoise, z: float, floor: float) -> float:
 
 
 def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules: PlacementRules,
-               allowed: Sequence[str] | None = None, others: Sequence[Placement] = ()) -> Rejection | None:
-    """The batch's placement rules on a pose given outright (moved by hand in the preview, or
-    saved): the first rule it breaks, or None when the batch would have accepted it. ``others``:
-    the objects placed before it. Orientation rules (road direction, parked, junctions) are
-    about drawing candidates and are not checked."""
-    tests = PoseTests.of(frame, extents, rules, surfaces_for(class_name, allowed))
+               allowed: Sequence[str] | None = None, others: Sequence[Placement] = (),
+               orientation: str | None = None, claim: "Traffic | None" = None) -> Rejection | None:
+    """The batch's placement rules on a pose given outright (moved by hand in the preview,
+    saved, or recorded by a batch: check-placement): the first rule it breaks, or None when
+    the batch would accept it. ``others``: the objects placed before it. ``claim``: where the
+    placement said the object stands in traffic (traffic.py); its traffic rules are checked
+    too (verdict.py). Without a claim (a pose moved by hand) the traffic rules are the user's
+    choice and not checked. The placement runs this on every pose it returns."""
+    from .verdict import check_traffic
+
+    tests = PoseTests.of(frame, extents, rules, surfaces_for(class_name, allowed), class_name)
     m = np.asarray(matrix, float)
     why = tests.image(m, heights=False)
     if why:
@@ -239,4 +286,5 @@ def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules
     prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
     # collisions before visibility (the batch's order is the other way round): an object moved
     # onto another is said to collide, not to be hidden by it
-    return tests.overlap(m, prints) or tests.scene(m) or tests.visibility(m, others)[0]
+    return tests.overlap(m, prints, others) or tests.scene(m) or tests.visibility(m, others)[0] \
+        or check_traffic(frame, extents, m, orientation or "", claim, rules.traffic)

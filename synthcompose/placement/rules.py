@@ -2,8 +2,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .traffic import Traffic
 
 #: default allowed surfaces per Cityscapes class
 ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
@@ -12,9 +16,17 @@ ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
     "person": ("sidewalk",), "traffic sign": ("sidewalk",), "traffic light": ("sidewalk",),
     "pole": ("sidewalk",),
 }
-#: default orientation rule per class (others: along-road)
-ORIENTATION: dict[str, str] = {"person": "random", "traffic sign": "face-camera", "traffic light": "face-camera"}
-ORIENTATIONS = ("along-road", "parked", "face-camera", "random")
+#: default orientation rule per class (others: along-road): vehicles in traffic (moving in a
+#: lane or parked at the kerb, facing their lane's direction), people walking or standing on
+#: the footway, signs at the kerb facing the traffic they regulate (traffic.py)
+ORIENTATION: dict[str, str] = {"person": "pedestrian", "rider": "along-road", "traffic sign": "facing-traffic",
+                               "traffic light": "facing-traffic", "pole": "facing-traffic"}
+#: along-road: a vehicle moving in its lane or parked, as the lane drawn is; moving / parked:
+#: only so; pedestrian: walking or standing on the footway; facing-traffic: a sign at the kerb;
+#: face-camera and random: turned towards the camera or at random, without traffic sense
+ORIENTATIONS = ("along-road", "moving", "parked", "pedestrian", "facing-traffic", "face-camera", "random")
+#: the traffic directions a manifest may ask for (placement.traffic)
+TRAFFIC_SIDES = ("right-hand", "left-hand")
 
 
 def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:
@@ -71,7 +83,22 @@ class PlacementRules:
     min_visible_pixels: int = 150
     max_occluded_fraction: float = 0.7
     allow_truncation: bool = False  # objects may be cut by the image border
-    parked_kerb_gap: float = 0.8  # parked: most distance from the kerb line to the car's side, metres
+    parked_kerb_gap: float = 0.8  # (kept for manifests of earlier versions; parked cars stand traffic.PARK_GAP from the kerb)
+    traffic: str = "right-hand"  # or "left-hand": which side of the road traffic keeps to
+
+
+def rules_dict(rules: PlacementRules) -> dict:
+    """The rules as the record keeps them (check-placement reads them back: :func:`rules_from`)."""
+    from dataclasses import asdict
+
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(rules).items()}
+
+
+def rules_from(d) -> PlacementRules:
+    """The rules a record kept (defaults for a record without them, or for keys it lacks)."""
+    known = {f for f in PlacementRules.__dataclass_fields__}
+    given = {k: (tuple(v) if isinstance(v, list) else v) for k, v in (d or {}).items() if k in known}
+    return PlacementRules(**given)
 
 
 @dataclass(frozen=True)
@@ -89,6 +116,14 @@ class Placement:
     pixel: tuple[int, int]  # (row, column) of the chosen ground point
     occluded_estimate: float  # share of the object hidden by the real scene (box samples)
     truncated: bool  # the object crosses the image border
+    traffic: "Traffic | None" = None  # where it stands in traffic (traffic.py); None: no traffic sense asked
+
+    @property
+    def pose_hint(self) -> str | None:
+        """A person's pose for where it stands: ``walking`` (along the footway, ``yaw`` its
+        walking direction) or ``standing`` (waiting at the kerb facing the road, or by a door);
+        None for other objects. The cast poses the model so."""
+        return None if self.traffic is None else self.traffic.pose_hint
 
     @property
     def matrix(self) -> np.ndarray:
@@ -130,6 +165,8 @@ RULE_OF: dict[str, str] = {
     "too few visible pixels": "min visible pixels",
     "would hide an object placed before": "max occluded share",
     "overlaps another inserted object": "collision",
+    "sign hidden behind an inserted object": "max occluded share",
+    "would hide a sign placed before": "max occluded share",
     "intersects the scene": "collision",
 }
 

@@ -33,8 +33,9 @@ import numpy as np
 from ..geometry import Frame, back_project, nearest_in_row, pinhole
 from ..labels import label_id
 from .boxes import footprint_corners, pose_matrix
-from .poses import PoseTests
-from .road import road_line
+from .poses import PoseTests, check_pose
+from .traffic import (TRAFFIC_ORIENTATIONS, hand_of, person_spot, sign_spot, street_of, traffic_candidates,
+                      vehicle_spot)
 from .rules import (GROUND_LEVEL, ORIENTATIONS, Placement, PlacementResult,
                     PlacementRules, Rejection, label_mask, orientation_for, surfaces_for)
 
@@ -76,6 +77,7 @@ class _Candidates:
         dist = np.hypot(ground_x, ground_y)
         keep = (dist >= lo) & (dist <= hi)
         self.rows, self.cols, self.z = v[keep], u[keep], z[keep]
+        self.xy = np.column_stack([ground_x[keep] + np.float32(cam.x), ground_y[keep] + np.float32(cam.y)])
         # room along the row (pixels) to the nearest other ground surface, or the image border
         left, right = _row_room(_blocking(frame.label_ids[::STRIDE, ::STRIDE], frame.labelled, allowed_ids))
         self.room = np.minimum(left, right)[v[keep] // STRIDE, u[keep] // STRIDE] * STRIDE
@@ -89,13 +91,16 @@ class _Candidates:
         """The candidates with room for ``half_size`` metres on both sides along their row
         (90 % of it, for the foreshortening of a footprint turned across the view); the same
         pool when none has."""
-        fits = self.room >= 0.9 * self.camera.fx * half_size / self.z
-        if not fits.any() or fits.all():
+        return self.subset(self.room >= 0.9 * self.camera.fx * half_size / self.z)
+
+    def subset(self, keep: np.ndarray) -> "_Candidates":
+        """The candidates where ``keep`` (N,) holds; the same pool when none or all do."""
+        if not keep.any() or keep.all():
             return self
         sub = object.__new__(_Candidates)
         sub.camera, sub.depth = self.camera, self.depth
-        sub.rows, sub.cols, sub.z, sub.room, sub.weight = (a[fits] for a in (self.rows, self.cols, self.z,
-                                                                            self.room, self.weight))
+        sub.rows, sub.cols, sub.z, sub.room, sub.weight, sub.xy = (
+            a[keep] for a in (self.rows, self.cols, self.z, self.room, self.weight, self.xy))
         sub.cdf = np.cumsum(sub.weight)
         return sub
 
@@ -138,10 +143,40 @@ class _TracedCounter(Counter):
         super().__setitem__(key, value)
 
 
+def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, noise, floor: float = 0.3
+                 ) -> np.ndarray | None:
+    """The real ground point (V) seen at ``point``'s place on the ground plan (a candidate moved
+    to its place in traffic): the pixel it projects to, its real point's height taken and the
+    projection done again (the ground there may be higher or lower than where it was drawn).
+    None when that pixel is not allowed ground or its real point stays farther away on the
+    ground plan than the stereo's depth band there (at least ``floor`` metres): the place is
+    hidden, or across a kerb (15 cm at a grazing angle moves the ground seen by metres)."""
+    cam = frame.camera
+    H, W = frame.shape
+    lut = label_mask(allowed_ids)
+    p = np.array(point, float)
+    for _ in range(3):
+        uv = cam.project(frame.to_optical(p[None]))[0]
+        if not np.isfinite(uv).all():
+            return None
+        u, v = int(round(uv[0])), int(round(uv[1]))
+        if not (0 <= u < W and 0 <= v < H) or not np.isfinite(frame.depth[v, u]) or not lut[frame.label_ids[v, u]]:
+            return None
+        real = back_project(frame.depth, cam, np.array([v]), np.array([u]))[1][0].astype(float)
+        tol = float(noise.depth_band(float(frame.depth[v, u]), floor))
+        if math.hypot(real[0] - p[0], real[1] - p[1]) <= tol:
+            return np.array([p[0], p[1], real[2]])
+        p[2] = real[2]
+    return None
+
+
 def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
                  rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
-                 others: Sequence[Placement] = (), trace: list | None = None) -> PlacementResult:
+                 others: Sequence[Placement] = (), trace: list | None = None,
+                 pose_hint: str | None = None) -> PlacementResult:
     """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not.
+    ``pose_hint``: a person's pose, decided (and its model posed) before the placement
+    (``walking`` / ``standing``): the person is placed as that pose stands in traffic.
 
     ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
     candidate (the preview shows them); the result does not depend on it."""
@@ -150,7 +185,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     if orientation not in ORIENTATIONS:
         raise ValueError(f"unknown orientation {orientation!r}")
     allowed_ids = np.array([label_id(n) for n in allowed])
-    camera, depth = frame.camera, frame.depth
+    camera = frame.camera
     rejections: Counter[str] = Counter() if trace is None else _TracedCounter(trace)
     pool = candidates(frame, allowed_ids, rules.distance)
     lo, hi = rules.distance
@@ -158,40 +193,44 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
     pool = pool.fitting(min(extents[0], extents[1]) / 2)
-    tests = PoseTests.of(frame, extents, rules, allowed)
+    tests = PoseTests.of(frame, extents, rules, allowed, class_name)
     jitter = math.radians(rules.yaw_jitter_deg)
-    l, w, h = extents
     other_prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]
+
+    hand = hand_of(rules.traffic)
+    street = street_of(frame, rules.traffic) if orientation in TRAFFIC_ORIENTATIONS else None
+    if street is not None:  # only where the object can stand in traffic (a necessary condition)
+        pool = pool.subset(traffic_candidates(frame, street, pool.xy, orientation, extents, hand))
 
     for attempt in range(1, rules.max_attempts + 1):
         idx = pool.draw(rng)
         point = pool.point(idx).astype(float)
-        row, col = int(pool.rows[idx]), int(pool.cols[idx])
         if trace is not None:  # preview: where this candidate was
             rejections.point = point
-        # orientation
-        road_yaw = None
+        # orientation: with traffic sense the candidate moves to its place in the lane or at
+        # the kerb (traffic.py); without, it is turned towards the camera or at random
+        road_yaw, claim = None, None
         if orientation == "random":
             yaw = float(rng.uniform(-math.pi, math.pi))
         elif orientation == "face-camera":
             to_cam = camera.position[:2] - point[:2]
             yaw = math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter))
         else:
-            line = road_line(frame, allowed_ids, point)
-            if line is None:
-                if orientation == "parked":
-                    rejections["no kerb line nearby (parked)"] += 1
-                    continue
-                base = 0.0  # no kerb seen: the ego vehicle's heading
-            elif line.ambiguous:
-                rejections["road direction ambiguous (junction)"] += 1
-                continue
+            if orientation == "pedestrian":
+                spot = person_spot(frame, street, point, rng, hand, pose_hint)
+            elif orientation == "facing-traffic":
+                spot = sign_spot(frame, street, point, extents, rng, jitter, hand)
             else:
-                base = road_yaw = line.angle
-                if orientation == "parked" and abs(line.offset) - w / 2 > rules.parked_kerb_gap:
-                    rejections["too far from the kerb (parked)"] += 1
-                    continue
-            yaw = base + (0.0 if rng.random() < 0.5 else math.pi) + float(rng.uniform(-jitter, jitter))
+                spot = vehicle_spot(frame, street, point, extents, orientation, rng, jitter, hand)
+            if isinstance(spot, Rejection):
+                rejections[spot.reason] += 1
+                continue
+            moved, yaw, claim = spot
+            point = _seen_ground(frame, moved, allowed_ids, tests.noise)
+            if point is None:
+                rejections["its place in traffic is not seen on the ground"] += 1
+                continue
+            road_yaw = math.radians(claim.heading_deg)
         # 1. cheap image tests on a provisional level pose: in view, footprint on allowed ground
         why = tests.image(pose_matrix(point, UP, yaw), heights=False)
         if why:
@@ -215,17 +254,23 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         if why:
             rejections[why.reason] += 1
             continue
-        # 4. other objects of this frame; 5. scene points inside the box
-        why = tests.overlap(m, other_prints) or tests.scene(m)
+        # 4. other objects of this frame; 5. scene points inside the box; 6. the pose as the
+        # checker sees it: the same rules on the pose given outright, traffic included (one
+        # rule set: what placement returns, check-placement --strict accepts)
+        why = tests.overlap(m, other_prints, others) or tests.scene(m) \
+            or check_pose(frame, class_name, extents, m, rules, allowed, others, orientation, claim)
         if why:
             rejections[why.reason] += 1
             continue
+        uv = camera.project(frame.to_optical(position[None]))[0]
+        row = int(np.clip(round(uv[1]), 0, frame.shape[0] - 1))
+        col = int(np.clip(round(uv[0]), 0, frame.shape[1] - 1))
         placement = Placement(
             class_name=class_name, extents=tuple(float(e) for e in extents),
             vehicle_from_object=tuple(tuple(float(v) for v in r) for r in m),
             yaw=float(math.atan2(m[1, 0], m[0, 0])), road_yaw=road_yaw,
             ground_normal=tuple(float(v) for v in ground.normal), ground_rms=ground.rms,
             distance=float(math.hypot(position[0] - camera.x, position[1] - camera.y)),
-            pixel=(row, col), occluded_estimate=hidden, truncated=in_image < 1.0)
+            pixel=(row, col), occluded_estimate=hidden, truncated=in_image < 1.0, traffic=claim)
         return PlacementResult(placement, attempt, dict(rejections))
     return PlacementResult(None, rules.max_attempts, dict(rejections))

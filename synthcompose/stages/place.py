@@ -4,6 +4,8 @@ and the record's first part)."""
 from __future__ import annotations
 
 import logging
+import zlib
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +20,10 @@ from ..manifest import Manifest, ObjectSpec
 from ..models import Model, load_model, posable, pose_rng, posed_model
 from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.noise import StereoNoise
+from ..models.poses import KINDS, WALKING_SHARE
+from ..placement.rules import orientation_for, rules_dict
+from ..placement.lanes import lanes
+from ..placement.traffic import hand_of
 from ..placements import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
 from .prepare import Prepared
@@ -78,19 +84,38 @@ def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
                                  f"({', '.join(repr(s.name) for s in m.objects)})")
 
 
-def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int) -> tuple[Model, CastDraw | None, dict | None]:
+def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int,
+                 pose: str | None = None) -> tuple[Model, CastDraw | None, dict | None]:
     """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
     drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
     posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
-    builtin as it is."""
+    builtin as it is. ``pose``: a person's pose kind (``walking`` / ``standing``; None: any)."""
     if spec.cast:
         rng = cast_rng(m.seed, key, index)
-        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng)
+        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng, pose)
         return model, drawn, None
     if spec.class_name in ("person", "rider") and posable(spec.model):
-        model, pose = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index))
-        return model, None, pose
+        model, posed = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index), pose)
+        return model, None, posed
     return load_model(spec.model, spec.size, spec.up, spec.forward), None, None
+
+
+def pose_kind(m: Manifest, spec: ObjectSpec, key: str, index: int) -> str | None:
+    """A person who follows the footway (orientation ``pedestrian``): ``walking`` or
+    ``standing``, decided before the placement (its own draw of (seed, image set, index)) so
+    that the model is posed so and the placement's checks use the posed model's extents; the
+    placement then puts the pose where it fits (walking along the footway, standing facing the
+    road). None for other objects."""
+    if spec.class_name != "person" or orientation_for(spec.class_name, spec.orientation) != "pedestrian":
+        return None
+    rng = np.random.default_rng([int(m.seed), zlib.crc32(key.encode()), int(index), 0x6B696E64])
+    return "walking" if rng.random() < WALKING_SHARE else "standing"
+
+
+def _posed_as(drawn: CastDraw | None, pose: dict | None) -> str | None:
+    """The pose kind a model was given (``walking`` / ``standing``), None when not posed."""
+    kind = (pose or (drawn.appearance.get("pose") if drawn is not None else None) or {}).get("pose")
+    return kind if kind in KINDS else None
 
 
 def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
@@ -100,6 +125,41 @@ def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
     if not source.is_file():
         return set()
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
+
+
+def _place_one(m: Manifest, prep: Prepared, spec: ObjectSpec, objects: list, taken: set[int],
+               saved_object=None, trace: list | None = None,
+               saved_from: SavedPlacement | None = None) -> "PlacedObject | dict":
+    """One object placed among ``objects`` (placed before it): its PlacedObject, or the
+    failure's record (name, class, reason, attempts, rejections)."""
+    ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
+    kind = pose_kind(m, spec, ident.key, len(objects)) if saved_object is None else None
+    model, drawn, pose = object_model(m, spec, ident.key, len(objects), kind)
+    if saved_object is not None and (problem := pose_problem(frame, model.extents, saved_object.matrix)):
+        raise InputError(saved_from.path, f"saved placement object {saved_from.objects.index(saved_object)} "
+                                          f"({spec.name!r}) {problem}")
+    others = [o.placement for o in objects]
+    result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
+                          spec.orientation, others, trace=trace, pose_hint=_posed_as(drawn, pose)) \
+        if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
+    if result.placement is None:
+        return {"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
+                "attempts": result.attempts, "rejections": result.rejections}
+    check = None
+    if saved_object is not None:  # a saved pose is used as it is; the record says whether the
+        # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
+        why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
+                         spec.allowed_surfaces, others)
+        check = {"ok": True}
+        if why is not None:
+            check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+            log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
+    try:
+        inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
+    except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
+        raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
+    taken.add(inst)
+    return PlacedObject(spec, model, result, inst, check, drawn, pose)
 
 
 def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
@@ -116,33 +176,24 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         for k in range(m.objects_per_image if saved is None else len(saved.objects)):
             spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
                 _saved_spec(m, saved, k)
-            model, drawn, pose = object_model(m, spec, ident.key, len(objects))
-            if saved is not None and (problem := pose_problem(frame, model.extents, saved.objects[k].matrix)):
-                raise InputError(saved.path, f"saved placement object {k} ({spec.name!r}) {problem}")
-            others = [o.placement for o in objects]
-            result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
-                                  spec.orientation, others, trace=trace) \
-                if saved is None else saved_result(frame, spec.class_name, model.extents, saved.objects[k])
-            if result.placement is None:
-                failures.append({"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
-                                 "attempts": result.attempts, "rejections": result.rejections})
-                continue
-            check = None
-            if saved is not None:  # a saved pose is used as it is; the record says whether the
-                # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
-                why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
-                                 spec.allowed_surfaces, others)
-                check = {"ok": True}
-                if why is not None:
-                    check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
-                    log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
-            try:
-                inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
-            except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
-                raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
-            taken.add(inst)
-            objects.append(PlacedObject(spec, model, result, inst, check, drawn, pose))
+            done = _place_one(m, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
+            (objects if isinstance(done, PlacedObject) else failures).append(done)
+        if saved is None and not objects and failures:
+            # a frame that got none of its objects tries each of them once more (twice the
+            # attempts): a frame with free road or footway gets an object where one fits
+            again, failures = failures, []
+            for f in again:
+                spec = next(s for s in m.objects if s.name == f["name"])
+                done = _place_one(m, prep, spec, objects, taken, None, trace)
+                if isinstance(done, PlacedObject):
+                    objects.append(done)
+                else:
+                    rejections = Counter(f["rejections"]) + Counter(done["rejections"])
+                    failures.append(done | {"attempts": f["attempts"] + done["attempts"],
+                                            "rejections": dict(rejections)})
     noise = frame_noise(frame)
+    hand = hand_of(m.rules.traffic)
+    street = frame.cache.get(("street", hand))  # found when an object asked for it
     record = ImageSetRecord(
         image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
         source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
@@ -154,6 +205,9 @@ def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, f
         else {"mode": "estimate"},  # the estimate replaces it when the objects are shaded
         not_placed=tuple(failures),
         placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
-                                                   "sha256": saved.sha256})
+                                                   "sha256": saved.sha256},
+        street=None if street is None else street.to_dict() | {
+            "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)]},
+        placement_rules=rules_dict(m.rules))
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 

@@ -71,7 +71,7 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
             placement_source="saved" if s.placed.saved is not None else "random",
             placement_check=obj.check,
             bbox_2d_amodal=None if s.amodal[k - 1] is None else tuple(s.amodal[k - 1]),
-            mask_rle=encode_rle(mask)))
+            mask_rle=encode_rle(mask), traffic=None if pl.traffic is None else pl.traffic.to_dict()))
     return tuple(out)
 
 

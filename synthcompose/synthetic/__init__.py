@@ -12,6 +12,8 @@ keeps the shading as it is. The modules are the steps, in order:
 scene     :class:`StreetScene`, :class:`Box`, :class:`Pole`: the street frame, ground plan and
           objects (the frames and the cross-section are described there)
 layout    :func:`random_scene`: draws a street (camera, buildings, poles, cars, pedestrians)
+streets   :class:`StreetKind`: streets laid out as traffic uses them (``street=`` option: two-way,
+          one-way, parking bays, a zebra crossing)
 raycast   the z-buffer of one ray per pixel centre: depth, primitive, face
 shading   albedos, sky, the default light, haze, the bonnet
 light     :class:`SceneLight`: an optional known light (linear light, cast shadows)
@@ -29,10 +31,11 @@ from .layout import MAX_CAMBER, MAX_HEADING_DEG, MAX_SLOPE, random_camera, rando
 from .light import SceneLight
 from .scene import TEXTURES, Box, Pole, StreetScene
 from .stereo import STEREO_MODES, sgm_disparity
+from .streets import STREET_KINDS, StreetKind
 from .writing import make_sample, write_image_set
 
 __all__ = [
     "HOLE_FRACTION", "MAX_CAMBER", "MAX_HEADING_DEG", "MAX_SLOPE", "PHOTO_MODES", "TEXTURES", "Box", "Pole",
-    "SceneLight", "STEREO_MODES", "StreetScene", "camera_look", "make_sample", "random_camera", "random_scene",
+    "SceneLight", "STEREO_MODES", "STREET_KINDS", "StreetKind", "StreetScene", "camera_look", "make_sample", "random_camera", "random_scene",
     "render_scene", "render_scene_sunlit", "sgm_disparity", "write_image_set",
 ]

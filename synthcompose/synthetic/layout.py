@@ -15,6 +15,7 @@ from ..camera import Camera
 from ..labels import INSTANCE_FACTOR, label_id
 from .light import SceneLight
 from .scene import RGB, Box, Pole, StreetScene
+from .streets import StreetKind, rotation_z
 
 #: accepted ranges of the :func:`random_scene` options
 #: (the heading limit keeps a corner of the cross street in view for ``occluding_pole``)
@@ -104,7 +105,7 @@ def _ground_rotation(slope: float, dzdb: float) -> tuple[float, ...] | None:
 
 
 def _car_boxes(rng: np.random.Generator, xc: float, yc: float, ground: float, facing: int,
-               instance: int, rotation: tuple[float, ...] | None = None) -> list[Box]:
+               instance: int, rotation: tuple[float, ...] | None = None, nose: int = 0) -> list[Box]:
     """A parked car as body, cabin and four wheel boxes, centred at (xc, yc), nose to ``facing``.
 
     ``ground`` is the surface height at (xc, yc); ``rotation`` (about that point) tilts the car
@@ -115,7 +116,7 @@ def _car_boxes(rng: np.random.Generator, xc: float, yc: float, ground: float, fa
     pose = {} if rotation is None else {"rotation": rotation, "pivot": (xc, yc, ground)}
     body_lo, body_top = ground + 0.3, ground + 0.62 * height
     boxes = [Box((xc - length / 2, yc - width / 2, body_lo), (xc + length / 2, yc + width / 2, body_top),
-                 "car", instance, paint, "car_body", **pose)]
+                 "car", instance, paint, "car_body", nose=nose, **pose)]
     c0, c1 = -0.30 * length, 0.24 * length  # cabin set back towards the rear
     if facing < 0:
         c0, c1 = -c1, -c0
@@ -126,6 +127,29 @@ def _car_boxes(rng: np.random.Generator, xc: float, yc: float, ground: float, fa
             cx, cy = xc + wx * (length / 2 - 0.82), yc + wy * (width / 2 - 0.13)
             boxes.append(Box((cx - 0.33, cy - 0.11, ground), (cx + 0.33, cy + 0.11, ground + 0.62),
                              "car", instance, (26, 26, 28), **pose))
+    return boxes
+
+
+def _bay_cars(rng: np.random.Generator, plan: StreetScene, kind: StreetKind, corner: list[Pole],
+              cam_xy: np.ndarray, first_id: int) -> list[Box]:
+    """Cars in about 85 % of the bays along both kerbs (none at the crossings), nosed in at the
+    layout's angle along their side's direction."""
+    boxes: list[Box] = []
+    w, xc0, xc1 = plan.road_half_width, plan.crossing[0], plan.crossing[1]
+    k = 0
+    for side in (1, -1):
+        for a, b in kind.bay_centres(side, w, 6.0, 70.0):
+            if rng.random() > 0.85 or (a > xc0 - 6.0 and a < xc1 + 4.0):
+                continue
+            if plan.zebra is not None and plan.zebra[0] - 4.0 < a < plan.zebra[1] + 4.0:
+                continue
+            lo, hi = np.array([a - 2.4, b - 2.4]), np.array([a + 2.4, b + 2.4])
+            if any(_segment_hits_rect(cam_xy, np.array([p.x, p.y]), lo - p.radius, hi + p.radius) for p in corner):
+                continue
+            ground = plan.crown_z + plan.slope * a - plan.camber * min(abs(b), w)
+            tilt = _ground_rotation(plan.slope, -plan.camber * side)
+            boxes += _car_boxes(rng, a, b, ground, 1, first_id + k, rotation_z(kind.yaw(side), tilt), 1)
+            k += 1
     return boxes
 
 
@@ -167,7 +191,8 @@ def _option(value: float | None, name: str, limit: float) -> float:
 
 def random_scene(rng: np.random.Generator, width: int, height: int, *, road: bool = True,
                  heading_deg: float | None = None, slope: float | None = None, camber: float | None = None,
-                 occluding_pole: bool = True, light: "SceneLight | None" = None) -> StreetScene:
+                 occluding_pole: bool = True, light: "SceneLight | None" = None,
+                 street: str | None = None) -> StreetScene:
     """Draw a street scene for a ``width`` x ``height`` image.
 
     light : optional :class:`SceneLight` (a known sun, ambient colour, cast shadows, shading in
@@ -190,6 +215,11 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
                   which did not happen in 800 scenes at +-28 deg).
                   False: those corner poles are left out (the rest of the scene is unchanged).
 
+    street      : None, or a street kind of :mod:`.streets` (``two-way``, ``one-way``, ``angled``,
+                  ``perpendicular``, ``zebra``): the street laid out as traffic uses it (the
+                  ego vehicle in its lane, parking strips or bays, the parked cars facing their
+                  side's direction, a zebra crossing); None draws it as earlier versions.
+
     None (and 0) keep the flat street along x, with outputs identical to earlier versions.
     The ground is at height 0 under V's origin. Random numbers drawn do not depend on the
     options, so one seed gives the same layout (in street coordinates) for any of them.
@@ -198,8 +228,11 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
     grade = _option(slope, "slope", MAX_SLOPE)
     fall = _option(camber, "camber", MAX_CAMBER) if road else 0.0
 
+    kind = StreetKind.of(street)
     camera = random_camera(rng, width, height)
     w = float(rng.uniform(4.2, 6.0))
+    if kind is not None:
+        w = kind.half_width(w)
     kerb = float(rng.uniform(0.12, 0.15)) if road else 0.0
     walk = float(rng.uniform(3.0, 4.0))
     xc0 = float(rng.uniform(24.0, 40.0))
@@ -213,12 +246,15 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
 
     # street frame: turned about the camera's ground point; ground height 0 under V's origin
     origin = (0.0, 0.0)
-    if heading != 0.0:
+    ego_b = camera.y if kind is None else kind.ego_b(camera.y)  # the camera's place across the street
+    if heading != 0.0 or ego_b != camera.y:
         c, s = math.cos(heading), math.sin(heading)
-        origin = (camera.x - (c * camera.x - s * camera.y), camera.y - (s * camera.x + c * camera.y))
+        origin = (camera.x - (c * camera.x - s * ego_b), camera.y - (s * camera.x + c * ego_b))
+    traffic = {} if kind is None else {"parking_lane": kind.depth, "centre_line": not kind.one_way,
+                                       "street_kind": kind.name, "zebra": kind.zebra_range(xc0)}
     plan = StreetScene(camera=camera, road_half_width=w, kerb_height=kerb, sidewalk_width=walk, boxes=(), poles=(),
                        has_road=road, crossing=(xc0, xc1), ego_rows=int(ego_rows), street_heading=heading,
-                       street_origin=origin, slope=grade, camber=fall)
+                       street_origin=origin, slope=grade, camber=fall, **traffic)
     a_o, b_o = (float(v) for v in plan.to_street(0.0, 0.0))
     plan = dataclasses.replace(plan, crown_z=fall * abs(b_o) - grade * a_o + 0.0)
 
@@ -268,6 +304,9 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
     n_cars = int(rng.integers(2, 6))
     placed: list[tuple[float, float, float]] = []  # (x_min, x_max, side)
     cam_xy = np.array([float(v) for v in plan.to_street(camera.x, camera.y)])
+    if kind is not None and kind.parking != "parallel":
+        n_cars = 0  # bays instead
+        boxes += _bay_cars(rng, plan, kind, corner, cam_xy, car_id)
     for _ in range(400):
         if len(placed) >= n_cars:
             break
@@ -277,6 +316,8 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         x0, x1 = xc - half_len, xc + half_len
         if x1 > xc0 - 5.0 and x0 < xc1 + 3.0:
             continue  # no parking at the crossing
+        if plan.zebra is not None and x1 > plan.zebra[0] - 3.0 and x0 < plan.zebra[1] + 3.0:
+            continue  # nor at a zebra crossing
         if any(s == side and x0 < b + 1.0 and x1 > a - 1.0 for a, b, s in placed):
             continue
         yc = side * (w - yoff - half_wid)
@@ -285,8 +326,9 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
             continue  # keep the corner poles in full view
         # the car stands on its half of the road: the plane z = crown + grade*a - fall*side*b
         ground = plan.crown_z + grade * xc - fall * abs(yc)
-        boxes += _car_boxes(rng, xc, yc, ground, -side, car_id + len(placed),
-                            _ground_rotation(grade, -fall * side))
+        facing = -side if kind is None else kind.direction(side)
+        boxes += _car_boxes(rng, xc, yc, ground, facing, car_id + len(placed),
+                            _ground_rotation(grade, -fall * side), 0 if kind is None else facing)
         placed.append((x0, x1, side))
 
     # 0-2 pedestrians on the sidewalks

@@ -65,6 +65,9 @@ class Box:
                    ``pivot``: ``p_T = pivot + R @ (p_B - pivot)`` (used to tilt parked cars
                    with the road surface; several boxes of one car share R and pivot)
     pivot        : (a, b, z) in T, the fixed point of ``rotation``
+    nose         : a ``car_body`` box's front (head lamps; rear lamps at the other end): +1 at
+                   +a of its frame, -1 at -a, 0 as earlier versions drew it (by its side of the
+                   street: right +a, left -a)
     """
 
     lo: Vec3
@@ -77,6 +80,7 @@ class Box:
     window_spacing: float = 2.6
     rotation: tuple[float, ...] | None = None
     pivot: Vec3 = (0.0, 0.0, 0.0)
+    nose: int = 0  # a car body's front: +1 towards +a of its frame, -1 towards -a; 0 by its side (right: +a)
 
     def __post_init__(self) -> None:
         if not all(a < b for a, b in zip(self.lo, self.hi)):
@@ -148,6 +152,9 @@ class StreetScene:
     ego_rows         : rows of the bonnet at the image centre column (fewer at the sides)
     lane_dash        : centre-line dash length, gap and phase (metres)
     parking_lane     : width of the parking lane along each kerb (solid line at its edge)
+    centre_line      : the dashed centre line is drawn
+    street_kind      : None, or a :mod:`.streets` kind (one-way, bays, zebra crossing)
+    zebra            : (a0, a1) of a zebra crossing over the road, or None
     sun              : unit vector towards the sun in V
     noise_seed       : seed of the image noise, cloud pattern and disparity holes
     street_heading   : radians; the street direction in V is (cos, sin) of it
@@ -178,6 +185,9 @@ class StreetScene:
     camber: float = 0.0
     crown_z: float = 0.0
     light: "SceneLight | None" = None  # optional light control (see SceneLight); None: the default shading
+    centre_line: bool = True  # the dashed centre line is drawn (not on a one-way street)
+    street_kind: str | None = None  # streets.StreetKind's name: lanes, bays and crossings as traffic uses them
+    zebra: tuple[float, float] | None = None  # a zebra crossing's a-range, or None
 
     # ------------------------------------------------------------------ frames
     @property

@@ -10,6 +10,7 @@ import numpy as np
 from .light import light_shade, light_tint
 from .raycast import PID_EGO, PID_FIRST_OBJECT, PID_KERB, PID_ROAD, PID_SIDEWALK, PID_SKY, Buffers
 from .scene import Box, StreetScene
+from .streets import StreetKind, zebra_paint
 
 
 def _hash01(ix: np.ndarray, iy: np.ndarray, salt: int) -> np.ndarray:
@@ -37,7 +38,12 @@ def _road_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray) -> np.ndarray
     crossing = scene.street_in_crossing(x)
     dash, gap, phase = scene.lane_dash
     paint = (ay <= 0.07) & (np.mod(x - phase, dash + gap) < dash) & ~crossing
+    if not scene.centre_line:
+        paint[:] = False
     paint |= (np.abs(ay - (w - scene.parking_lane)) <= 0.06) & ~crossing
+    if scene.street_kind is not None:
+        paint |= StreetKind.of(scene.street_kind).bay_lines(x, y, w) & ~crossing
+        paint |= zebra_paint(x, y, scene.zebra, w)
     if scene.crossing is not None:
         xc0 = scene.crossing[0]
         paint |= (x >= xc0 - 2.6) & (x <= xc0 - 2.1) & (y <= 0) & (y >= -(w - scene.parking_lane))
@@ -101,8 +107,9 @@ def _box_albedo(box: Box, p: np.ndarray, face: np.ndarray, y_center_sign: float)
         ends = axis == 0
         lamp_y = np.minimum(p[:, 1] - lo[1], hi[1] - p[:, 1])
         lamp = ends & (zz > 0.55 * top) & (zz < 0.8 * top) & (lamp_y < 0.32)
-        # cars on the right (y < 0) face +x, on the left -x: rear lamps are red
-        rear = (face == 0) if y_center_sign < 0 else (face == 1)
+        # cars on the right (y < 0) face +x, on the left -x, unless their nose says: rear lamps are red
+        nose = box.nose or (1 if y_center_sign < 0 else -1)
+        rear = (face == 0) if nose > 0 else (face == 1)
         rgb[lamp & rear] = (170, 28, 30)
         rgb[lamp & ~rear] = (215, 212, 200)
         plate = ends & (zz > 0.25 * top) & (zz < 0.45 * top) & (np.abs(p[:, 1] - (lo[1] + hi[1]) / 2) < 0.26)

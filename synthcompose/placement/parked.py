@@ -1,0 +1,150 @@
+"""The frame's own parked cars: along which kerbs of the ego carriageway they stand, and how
+(parallel to the kerb, angled or perpendicular in bays).
+
+Vehicle points are the labelled vehicles of a labelled frame, or, on a frame without labels,
+the points 0.4-1.5 m above the road at their distance along the street that are neither road
+nor sidewalk (a car's body: below, the ground; above, mostly walls and trees). A kerb has a
+parked row where such points stand within ``ROW_REACH`` of it over at least ``MIN_ROW`` metres
+of the street (a car driving by is seen over a few metres, mostly its rear). The row's depth
+is how far its road-facing side stands from the kerb (per metre of the street the farthest
+point, the median over the row): a parallel row is about a car's width deep, a row of bays a
+car's length. Bays are angled or perpendicular by the main axis of the row's blobs (the points
+on a 0.25 m grid, connected: one or a few cars each) against the street, perpendicular where
+the blobs do not tell.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..geometry import Frame
+from ..labels import label_id
+from .markings import _ground
+from .rules import label_mask
+from .street import Street, to_road
+
+VEHICLES = ("car", "truck", "bus", "caravan", "trailer")
+#: a row's cars stand within this far into the carriageway from the kerb and this far beyond it
+#: (on the kerb), metres
+ROW_REACH, ROW_BEYOND = 6.0, 1.0
+#: a parked row covers at least this many metres of the street
+MIN_ROW = 6.0
+#: deeper than this (metres from the kerb), a row stands in bays
+PARALLEL_DEPTH = 3.0
+#: vehicle bodies on a frame without labels: this high above the road, metres
+BODY = (0.4, 1.5)
+
+
+@dataclass(frozen=True)
+class ParkedRow:
+    """The real parked row along one kerb (``side`` -1 right, +1 left): metres of the street
+    it covers, its layout (``parallel``, ``angled``, ``perpendicular``), the cars' angle to
+    the street (degrees, 0 parallel) and its depth from the kerb (metres)."""
+
+    side: int
+    cover: float
+    layout: str
+    angle_deg: float
+    depth: float
+
+
+def parked_rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
+    """The parked rows along the ego carriageway's kerbs (cached on the frame, per street)."""
+    key = ("parked_rows", id(street))
+    if key not in frame.cache:
+        frame.cache[key] = _rows(frame, street)
+    return frame.cache[key]
+
+
+def _vehicle_points(frame: Frame, street: Street) -> tuple[np.ndarray, np.ndarray]:
+    """(a, s) of the frame's vehicle points (every 4th pixel)."""
+    lab = frame.label_ids[::4, ::4]
+    finite = np.isfinite(frame.depth[::4, ::4])
+    if frame.labelled:
+        v, u = np.nonzero(label_mask([label_id(n) for n in VEHICLES])[lab] & finite)
+        xy = _ground(frame, v * 4, u * 4)
+        return to_road(xy, street.b, street.q)
+    v, u = np.nonzero(finite)
+    v, u = v * 4, u * 4
+    cam = frame.camera
+    z = frame.depth[v, u].astype(np.float64)
+    optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
+    m = cam.vehicle_from_optical
+    p = optical @ m[:3, :3].T + m[:3, 3]
+    a, s = to_road(p[:, :2], street.b, street.q)
+    road = lab[v // 4, u // 4] == label_id("road")
+    # the road's height along the street, per metre of a
+    bins = np.clip(a.astype(np.int64), 0, 80)
+    heights = np.full(81, np.nan)
+    for i in np.unique(bins[road]):
+        heights[i] = np.median(p[road & (bins == i), 2])
+    known = np.flatnonzero(np.isfinite(heights))
+    if not len(known):
+        return np.empty(0), np.empty(0)
+    ground = np.interp(np.arange(81), known, heights[known])[bins]
+    h = p[:, 2] - ground
+    body = (h >= BODY[0]) & (h <= BODY[1]) & ~label_mask([label_id("road"), label_id("sidewalk")])[lab[v // 4, u // 4]]
+    return a[body], s[body]
+
+
+def _rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
+    a, s = _vehicle_points(frame, street)
+    ego = street.ego
+    out: dict[int, ParkedRow] = {}
+    for side, kerb in ((-1, ego.right), (+1, ego.left)):
+        inward = -side * (s - kerb)  # metres from the kerb into the carriageway
+        # on a frame without labels a wall or a hedge beyond the kerb stands as high as a car
+        beyond = ROW_BEYOND if frame.labelled else -0.2
+        sel = (inward >= -beyond) & (inward <= ROW_REACH) & (a >= 5.0) & (a <= 40.0)
+        if sel.sum() < 10:
+            continue
+        bins = a[sel].astype(np.int64)
+        counts = np.bincount(bins, minlength=41)
+        covered = np.flatnonzero(counts >= 3)
+        # a row: cars over MIN_ROW metres of the street, at least two of them (one car is
+        # a car driving by as well)
+        if len(covered) < 3 or covered[-1] - covered[0] + 1 < MIN_ROW or _blobs(a[sel], s[sel]) < 2:
+            continue
+        farthest = np.full(41, -np.inf)
+        np.maximum.at(farthest, bins, inward[sel])
+        depth = float(np.median(farthest[covered]))
+        if depth <= PARALLEL_DEPTH:
+            out[side] = ParkedRow(side, float(len(covered)), "parallel", 0.0, max(depth, 0.0))
+            continue
+        angle = _layout_angle(a[sel], s[sel])
+        layout = "angled" if 30 <= angle <= 65 else "perpendicular"
+        out[side] = ParkedRow(side, float(len(covered)), layout, angle if layout == "angled" else 90.0, depth)
+    return out
+
+
+def _grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np.ndarray]:
+    """The row's points on a ``cell`` grid (a, s), connected: (count + 1, component labels)."""
+    i = ((a - a.min()) / cell).astype(np.int64)
+    j = ((s - s.min()) / cell).astype(np.int64)
+    grid = np.zeros((int(i.max()) + 1, int(j.max()) + 1), np.uint8)
+    grid[i, j] = 1
+    return cv2.connectedComponents(grid, connectivity=8)
+
+
+def _blobs(a: np.ndarray, s: np.ndarray) -> int:
+    """How many blobs of at least 12 cells (a car or a few) the row's points make."""
+    n, comp = _grid(a, s)
+    return int((np.bincount(comp.ravel(), minlength=n)[1:] >= 12).sum())
+
+
+def _layout_angle(a: np.ndarray, s: np.ndarray) -> float:
+    """Median angle (degrees, 0-90) of the main axes of the row's blobs against the street."""
+    n, comp = _grid(a, s)
+    angles = []
+    for k in range(1, n):
+        pi, pj = np.nonzero(comp == k)
+        if len(pi) < 12:
+            continue
+        cov = np.cov(np.stack([pi, pj]).astype(float))
+        w, vec = np.linalg.eigh(cov)
+        main = vec[:, 1]
+        angles.append(math.degrees(math.atan2(abs(main[1]), abs(main[0]))))
+    return float(np.median(angles)) if len(angles) >= 2 else 0.0
