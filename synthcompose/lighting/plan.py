@@ -9,8 +9,12 @@ projects. A cell counts (``valid``) where the real scene seen there is that grou
 agrees with the plane's (a raised sidewalk's to within 15 %: a plane parallel to the road,
 sampled through the camera's centre, is the road's scaled about the camera's foot, so directions
 on it are kept), its label is ground (or, on a frame without labels, a level pixel), it is not
-grass, and nothing standing (a car, a wall, a pole) rises within :data:`NEAR_STANDING` of it in
-the image column above it (contact shadows, dark whatever the sun does).
+grass, nothing standing (a car, a wall, a pole) rises within :data:`NEAR_STANDING` of it in
+the image column above it (contact shadows, dark whatever the sun does), and the ground seen there
+is level (:data:`MAX_SLOPE`): a sun's shadow edge lies on level ground, while a kerb's vertical
+face, seen through the plane, climbs from the road's height to the sidewalk's over a band of
+cells (its rise per metre about the camera's height over the kerb's distance to the side: 0.2 at
+5 m) - left in, the step from its dark face to the lit sidewalk reads as a shadow's edge.
 """
 from __future__ import annotations
 
@@ -35,6 +39,8 @@ STANDING_HEIGHT = 0.3
 #: height over the camera's: 0.85-0.95)
 DEPTH_RATIO = (0.82, 1.08)
 RAISED_RATIO = 0.955
+#: ground steeper than this (rise per metre, over SLOPE_BASE metres) is not level: a kerb's face
+MAX_SLOPE, SLOPE_BASE = 0.15, 0.3
 _STEP = 2  # image subsampling of the point cloud (pixels)
 #: metres: how near a shadow must come to a caster's foot (the ground nearer is left out: NEAR_STANDING)
 FOOT_REACH = 1.0
@@ -163,6 +169,10 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     with np.errstate(invalid="ignore"):
         ratio = seen / np.where(np.isfinite(zo), zo, np.inf)
     valid = inside & ok & np.isfinite(ratio) & (ratio > DEPTH_RATIO[0]) & (ratio < DEPTH_RATIO[1])
+    # the seen point's height over the road plane: it lies on the cell's ray at `ratio` of the
+    # plane point's depth, and height is affine along a ray (the camera's over the plane at 0)
+    rise = ((1.0 - np.where(valid, ratio, 1.0)) * (camera.z - a)).astype(np.float32)
+    valid &= _level(rise, valid)
     # the ground's kind: its label; where a frame without labels has none (ground the colour
     # model of the found surfaces left out: shadows, patches), level or raised
     cls = np.where(np.isin(plane_lab, GROUND_IDS), plane_lab,
@@ -179,6 +189,18 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     feet = cv2.dilate(feet, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
     return GroundPlan(lin.astype(np.float32), valid, cls, clip, u, v, footprint, feet, (a, b, c),
                       (float(x0), float(y0)))
+
+
+def _level(rise: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(nx, ny) bool: cells whose seen ground is level - its height over the road plane (``rise``,
+    metres) changes by less than :data:`MAX_SLOPE` per metre, measured over :data:`SLOPE_BASE`
+    on the valid cells: a kerb's face or a ramp is not where a shadow's edge is read."""
+    sigma = SLOPE_BASE / CELL / 2.0
+    w = cv2.GaussianBlur(valid.astype(np.float32), (0, 0), sigma)
+    h = cv2.GaussianBlur(np.where(valid, rise, 0.0).astype(np.float32), (0, 0), sigma) / np.maximum(w, 1e-3)
+    gx = cv2.Sobel(h, cv2.CV_32F, 1, 0) / (8.0 * CELL)
+    gy = cv2.Sobel(h, cv2.CV_32F, 0, 1) / (8.0 * CELL)
+    return np.hypot(gx, gy) <= MAX_SLOPE
 
 
 def completed_labels(label_ids: np.ndarray, depth: np.ndarray, camera: Camera) -> np.ndarray:
