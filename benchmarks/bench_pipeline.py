@@ -31,7 +31,6 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_cost import dataset, run_batch  # noqa: E402
 
 
-
 def codec_floor(root: Path, count: int, threaded: bool) -> float:
     """Mean seconds per image set to decode its 4 input PNGs and encode 5 output PNGs: one after
     the other, or (``threaded``) side by side as the pipeline codes them (fileio.map_threads)."""

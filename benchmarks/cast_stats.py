@@ -11,7 +11,9 @@ settings with ``"cast": "street"`` (the right view off: the counts do not need i
 * car models: distinct ``appearance.model`` of the objects of class car (and of the vehicle
   classes truck and bus, counted apart);
 * people: distinct ``appearance.model`` of class person (each entry is one body);
-* poses: distinct ``appearance.pose.pose`` of the people, and distinct pose descriptions whole;
+* poses: distinct ``pose/variant`` of the people's ``appearance.pose`` (``standing/pockets``,
+  ``walking/walk``: the kinds of pose the issue names), the coarse ``pose`` alone, and distinct
+  pose descriptions whole;
 * sign types: distinct ``appearance.sign.code`` (the main sign of a pole), and the codes hung
   under them.
 
@@ -50,7 +52,7 @@ def run_batches(roots: list[Path], seeds: list[int], out: Path, per_image: int) 
 
 def count(outputs: list[Path]) -> dict:
     sets, objects = 0, Counter()
-    cars, heavy, people, poses, whole_poses, signs, below = (Counter() for _ in range(7))
+    cars, heavy, people, poses, coarse, whole_poses, signs, below = (Counter() for _ in range(8))
     for out in outputs:
         for path in sorted(Path(out).rglob("*_synthcompose.json")):
             record = json.loads(path.read_text())
@@ -68,13 +70,15 @@ def count(outputs: list[Path]) -> dict:
                 elif cls == "person":
                     people[model] += 1
                     pose = look.get("pose", {})
-                    poses[pose.get("pose", "?")] += 1
+                    poses[f"{pose.get('pose', '?')}/{pose.get('variant', '?')}"] += 1
+                    coarse[pose.get("pose", "?")] += 1
                     whole_poses[json.dumps(pose, sort_keys=True)] += 1
                 elif cls == "traffic sign" and "sign" in look:
                     signs[look["sign"]["code"]] += 1
                     below.update(look["sign"].get("below", []))
     return {"image_sets": sets, "objects": dict(objects), "car_models": dict(cars), "bus_lorry_models": dict(heavy),
-            "people": dict(people), "poses": dict(poses), "distinct_pose_descriptions": len(whole_poses),
+            "people": dict(people), "poses": dict(poses), "pose_kinds": dict(coarse),
+            "distinct_pose_descriptions": len(whole_poses),
             "sign_types": dict(signs), "supplementary_signs": dict(below)}
 
 

@@ -77,7 +77,8 @@ def main() -> None:
         overcast_sunny += estimate_lighting(arrays["rgb"], arrays["label_ids"], depth, scene.camera,
                                              args.work_width).sunny
     e = np.array(errors) if errors else np.array([np.nan])
-    print(f"size {w}x{h} (working grid {args.work_width} wide), {args.count} sunny scenes (sun azimuth uniform, elevation 20-65 deg), {n_over} overcast")
+    print(f"size {w}x{h} (working grid {args.work_width} wide), {args.count} sunny scenes "
+          f"(sun azimuth uniform, elevation 20-65 deg), {n_over} overcast")
     print(f"sun detected          : {detected}/{args.count} ({100 * detected / args.count:.0f}%)")
     print(f"azimuth within 20 deg : {int((e <= 20).sum())}/{detected} detected "
           f"({100 * np.mean(e <= 20):.0f}%), {100 * (e <= 20).sum() / args.count:.0f}% of all sunny")

@@ -6,12 +6,14 @@
 * per image set and seed (stereo_check.check_pair, OpenCV StereoSGBM on the augmented pair):
   over the inserted objects' visible pixels, the share the matcher matched, the share of those
   within 1 px of the written disparity (and of those the right camera sees too), the same over
-  the pixels whose window has the texture to measure a disparity, and the same figures for the frame's own cars and people against the
+  the pixels whose window has the texture to measure a disparity, and the same figures for the frame's own cars and
+  people against the
   input disparity; without a matcher, the mean difference between the left photo and the right
   one read at the written disparity, and 0.5 px off it; elsewhere, the share matched alike on the
   augmented and the input pair; pooled over all sets and seeds, and the range per set.
 
-    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--seeds 1 2 3] [--repeat 3] [--real /path/to/cityscapes] [--keep DIR]
+    python benchmarks/eval_stereo.py [--count 4] [--objects 3] [--seeds 1 2 3] [--repeat 3]
+                                     [--real /path/to/cityscapes] [--keep DIR]
 
 Never commit outputs made from real frames.
 """
@@ -30,9 +32,9 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_cost import cpu_s, dataset, run_batch, stage_cpu  # noqa: E402
 
+from evaluation.stereo_check import check_pair  # noqa: E402
 from synthcompose.dataset import find_image_sets  # noqa: E402
 from synthcompose.fileio import encode_png, read_png  # noqa: E402
-from evaluation.stereo_check import check_pair  # noqa: E402
 
 
 def right_codec_cpu(data: Path, count: int) -> float:

@@ -25,10 +25,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.synthetic import PHOTO_MODES, STEREO_MODES, random_scene, render_scene  # noqa: E402
 from evaluation.photo_stats import photo_stats  # noqa: E402
 from evaluation.stereo_stats import BANDS, stereo_stats  # noqa: E402
+from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.synthetic import PHOTO_MODES, STEREO_MODES, random_scene, render_scene  # noqa: E402
 
 ROWS = [("valid", "valid share", "{:.1%}"), ("left_band_valid", "valid share, left 100 columns", "{:.1%}"),
         ("residual_med", "road plane residual 31x31, median px", "{:.2f}"),

@@ -29,9 +29,9 @@ from __future__ import annotations
 import numpy as np
 
 from synthcompose.camera import Camera
+from synthcompose.fileio import decode_disparity
 from synthcompose.geometry import back_project, disparity_to_depth, make_frame
 from synthcompose.labels import HAS_INSTANCES, label_id
-from synthcompose.fileio import decode_disparity
 
 WINDOW = 31
 BANDS = ((5.0, 10.0), (10.0, 20.0), (20.0, 40.0))

@@ -25,6 +25,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from vehicle_glb import MATERIALS, write_glb  # noqa: E402
 from vehicle_recipes import RECIPES, SOURCES, Build  # noqa: E402
+from vehicle_recipes_jme import JME_RECIPES  # noqa: E402
+
+RECIPES.update(JME_RECIPES)
 
 #: flat colours of --debug, per role
 DEBUG = {"paint": (0.5, 0.5, 0.5), "glass": (0.0, 0.2, 0.9), "glass_privacy": (0.0, 0.05, 0.4),

@@ -9,7 +9,6 @@ import struct
 
 import numpy as np
 from PIL import Image
-
 from vehicle_mesh import Mesh
 
 #: role -> (linear base colour factor RGBA, metallic, roughness): what each material reads as

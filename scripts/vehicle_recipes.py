@@ -10,10 +10,21 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-
 from vehicle_glb import MATERIALS
-from vehicle_mesh import (Mesh, concat, corner_samples, crease_normals, decimate, face_samples, git_image, git_read, in_box, plate_quad, plate_uvs,
-                          ray_hits, read_obj, smooth_normals, wind_outwards)
+from vehicle_mesh import (
+    Mesh,
+    concat,
+    corner_samples,
+    decimate,
+    face_samples,
+    git_image,
+    git_read,
+    plate_quad,
+    plate_uvs,
+    ray_hits,
+    read_obj,
+    wind_outwards,
+)
 
 
 @dataclass(frozen=True)
@@ -31,6 +42,10 @@ SOURCES = {
     "openmaterial": Source("LudwigFriedmann/OpenMATERIAL", "c1283d565efdbf9f8e4afdc0a593bcabb466378d",
                            "CC-BY-SA-4.0", "", "model_structure/objects/README.md of that commit; ShareAlike: "
                            "the converted model stays under CC-BY-SA 4.0"),
+    "jme": Source("stephengold/jme-vehicles", "cd4cc9becf8500499213850777ea6319bc1a4ac4", "CC-BY-4.0",
+                  "MavCommon/src/main/resources/Models/modern_hatchback/license.txt",
+                  "MavCommon/src/main/resources/Models/modern_hatchback/license.txt of that commit: the model's "
+                  "licensing history (author, Sketchfab page, CC-BY-4.0), followed here by the licence's legal code"),
 }
 
 
@@ -66,10 +81,14 @@ class Build:
 
     def licence_text(self, source: str) -> bytes:
         s = SOURCES[source]
+        legal = Path(__file__).resolve().parent / "licences" / f"{s.spdx}.txt"
+        if s.licence_path and s.spdx.startswith("CC-"):
+            # the source's statement (author, title, where from), then the licence's legal code
+            return git_read(self.gits[source], s.commit, s.licence_path) + b"\n" + b"=" * 79 + b"\n\n" + legal.read_bytes()
         if s.licence_path:
             return git_read(self.gits[source], s.commit, s.licence_path)
         # the repository states the licence in a README only: its legal code, kept in scripts/licences
-        return (Path(__file__).resolve().parent / "licences" / f"{s.spdx}.txt").read_bytes()
+        return legal.read_bytes()
 
     # -------------------------------------------------------------- shared steps
     def chrono_wheels(self, vehicle_json: str, tyre_obj: str | None = None, rim_faces: int = 2500,
@@ -97,7 +116,8 @@ class Build:
             spindle = np.asarray(susp["Spindle"]["COM"], float)
             loc = np.asarray(axle["Suspension Location"], float)
             twin = "Left Outside Wheel Input File" in axle  # twin tyres: outside and inside of the spindle
-            wheel = self.json("chrono", f"data/vehicle/{axle['Left Outside Wheel Input File' if twin else 'Left Wheel Input File']}")
+            key = 'Left Outside Wheel Input File' if twin else 'Left Wheel Input File'
+            wheel = self.json("chrono", f"data/vehicle/{axle[key]}")
             rim = self.obj("chrono", f"data/vehicle/{wheel['Visualization']['Mesh Filename']}")
             if rim_faces:
                 rim = decimate(rim, rim_faces)
@@ -447,7 +467,8 @@ def jeep_wheels(b: Build) -> dict[str, Mesh]:
     centres = []
     for x, name in ((0.0, "Cherokee_SolidAxleFront.cpp"), (rear_x, "Cherokee_SolidAxleRear.cpp")):
         text = self_text(b, src + name)
-        y, z = (float(v) for v in re.search(r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)", text).groups())
+        spindle = r"case SPINDLE:\s*return ChVector3d\(\s*[-\d.]+\s*,\s*([-\d.]+)\s*,\s*([-\d.]+)\)"
+        y, z = (float(v) for v in re.search(spindle, text).groups())
         centres.append((x, y, z))
     rim = b.obj("chrono", f"{JEEP}/Cherokee_Wheel.obj")
     tyre = decimate(b.obj("chrono", f"{JEEP}/Cherokee_Tire.obj"), 3000)

@@ -29,12 +29,12 @@ import numpy as np
 
 from .cast import preload
 from .dataset import ImageSetId, input_fingerprint
+from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .errors import ManifestError, SynthComposeError
 from .fileio import PART_TAG, write_json
 from .frequency import count_classes, object_weights
 from .manifest import Manifest
 from .models import load_model
-from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
 from .pipeline import STAGES, Outcome
 from .record import Status, read_record
 from .selection import select_image_sets
@@ -133,7 +133,7 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
         return None
     if dict(record.source_fingerprint) != input_fingerprint(manifest.dataset, ident):
         return None  # an input file changed (or the record predates fingerprints)
-    from .placements import saved_is_stale  # saved placements: a placement saved since means redo
+    from .saved_poses import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record.placement_file):
         return None
     if record.status == Status.DONE:

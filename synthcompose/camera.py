@@ -22,8 +22,8 @@ roll); the intrinsic block (fx, fy, u0, v0). Values differ between frames.
 from __future__ import annotations
 
 import math
-from functools import cached_property
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 

@@ -32,13 +32,24 @@ from .dataset import ImageSetId, labelled_twin, read_image_set
 from .fileio import write_json
 from .geometry import make_frame
 from .labels import label_id
-from .placement import (FOOTPRINT_SAMPLES, MAX_PENETRATION, PlacementRules, check_pose, footprint_grid,
-                        footprint_support, frame_noise, local_ground, penetration, road_line, scene_clearance)
+from .placement import (
+    FOOTPRINT_SAMPLES,
+    MAX_PENETRATION,
+    PlacementRules,
+    check_pose,
+    footprint_grid,
+    footprint_support,
+    frame_noise,
+    local_ground,
+    penetration,
+    road_line,
+    scene_clearance,
+)
 from .placement.rules import rules_from
 from .placement.traffic import Traffic
 from .placement.verdict import lane_yaw_error
-from .placements import placement_from_pose
 from .record import ImageSetRecord, read_record
+from .saved_poses import placement_from_pose
 from .surfaces import frame_for
 
 #: what the checks require (issue: placement a dataset can trust)

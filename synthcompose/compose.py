@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-
 import moderngl
 import numpy as np
 
@@ -125,7 +124,7 @@ class Composer:
         as rendered)."""
         if len(classes) > MAX_OBJECTS:
             raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
-        gl, ctx = self.gl.activate(), self.gl.ctx
+        gl = self.gl.activate()
         roi = passes.roi
         rows, cols = roi.slices
         size = (roi.width, roi.height)

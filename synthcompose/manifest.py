@@ -17,10 +17,10 @@ from .cast import CAST_PREFIX, CASTS, CastEntry, entry_digest, load_catalogue
 from .errors import ManifestError
 from .fileio import read_json
 from .labels import INSERTABLE
+from .lighting.light import Lighting
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
 from .placement.rules import GROUND_LEVEL, ORIENTATIONS, TRAFFIC_SIDES, orientation_for, surfaces_for
-from .lighting.light import Lighting
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
 _POS = {"type": "number", "minimum": 0.01, "maximum": 1000}  # metres: nothing smaller or larger is an object
@@ -40,7 +40,8 @@ SCHEMA: dict[str, Any] = {
         "output": {"type": "string", "minLength": 1, "description": "output root (Cityscapes layout)"},
         "splits": {"type": "array", "items": _NAME, "minItems": 1, "uniqueItems": True},
         "cities": {"type": "array", "items": _NAME, "uniqueItems": True},
-        "frames": {"type": "array", "items": {"type": "string", "pattern": r"^(?!\s)(?![\s\S]*\s$)[^_/\\\x00-\x1f\x7f]+_[0-9]+_[0-9]+$"},
+        "frames": {"type": "array",
+                   "items": {"type": "string", "pattern": r"^(?!\s)(?![\s\S]*\s$)[^_/\\\x00-\x1f\x7f]+_[0-9]+_[0-9]+$"},
                    "uniqueItems": True},
         "limit": {"type": "integer", "minimum": 1},
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
@@ -169,7 +170,6 @@ class Manifest:
         model files' contents, the tool's version): a resumed batch keeps an image set's outputs
         only when its record carries the same. Computed once per manifest."""
         from . import __version__
-
         from .models import model_digest
 
         if self._hash:

@@ -19,8 +19,8 @@ never raised. :meth:`Pipeline.stream` runs the stages on three image sets at onc
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
 import numpy as np
@@ -33,11 +33,22 @@ from .frequency import object_weights
 from .gl import GLContext
 from .malloc import release_free_memory, steady_malloc
 from .manifest import Manifest
-from .placements import read_saved
 from .record import Status
 from .render import Renderer
-from .stages import (Outcome, PhotoLight, Placed, Prepared, Shaded, measure_light, place, prepare, shade, write_done,
-                     write_skipped)
+from .saved_poses import read_saved
+from .stages import (
+    Outcome,
+    PhotoLight,
+    Placed,
+    Prepared,
+    Shaded,
+    measure_light,
+    place,
+    prepare,
+    shade,
+    write_done,
+    write_skipped,
+)
 
 log = logging.getLogger("synthcompose")
 

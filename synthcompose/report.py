@@ -124,7 +124,8 @@ table{{border-collapse:collapse}} td,th{{border:1px solid #bbb;padding:2px 8px;t
 <h1>synthcompose batch report</h1>
 <p id="totals">{summary.get("done", len(cards))} done, {summary.get("skipped", 0)} skipped,
 {summary.get("failed", 0)} failed, {summary.get("resumed", 0)} from an earlier run;
-wall time {summary.get("wall_s", 0):.1f} s with {summary.get("workers", 1)} {html.escape(str(summary.get("engine", "")))} worker(s).</p>
+wall time {summary.get("wall_s", 0):.1f} s with {summary.get("workers", 1)}
+{html.escape(str(summary.get("engine", "")))} worker(s).</p>
 <h2>Inserted objects per class</h2>
 <table id="classes"><tr><th>class</th><th>inserted</th><th>no valid placement</th></tr>{counts}</table>
 <h2>Placement rejections</h2>

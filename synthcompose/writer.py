@@ -16,7 +16,6 @@ from .dataset import ImageSetId
 from .fileio import map_threads, write_bytes_atomic, write_json, write_png
 from .labels import colorize
 
-
 #: the PNG row filter of each kind of file written (fileio.PNG_FILTERS: the same pixels, less CPU)
 PNG_FILTER_OF = {"rgb": "paeth", "right": "paeth", "disparity": "paeth", "labelIds": "up", "instanceIds": "up",
                  "color": "up"}

@@ -12,21 +12,21 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation, CsBbox3d, CsObjectType, CsPoly
 from cityscapesscripts.helpers.box3dImageTransform import CRS_S, CRS_V, Box3dImageTransform
 from cityscapesscripts.helpers.box3dImageTransform import Camera as CsCamera
+from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 from pycocotools.coco import COCO
 
-from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
-
 from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners
-from synthcompose.fileio import decode_rle, encode_rle
-from synthcompose.render import mask_box
-from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.dataset import ImageSetId, read_image_set
+from synthcompose.fileio import decode_rle, encode_rle
 from synthcompose.labels import HAS_INSTANCES
+from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
+from synthcompose.render import mask_box
 
 from .helpers import drawn_back, write_manifest
+
 # the tolerances, from the one table; imported from here too (test_ecosystem, test_real_polygons)
 from .tolerances import CORNER_M, CORNER_PX, INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK, POLYGON_MIN_IOU, SILHOUETTE_PX
 
@@ -329,15 +329,14 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(annotated_batch, tmp_pa
 # ------------------------------------------------------------- an object behind a real pole
 def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
     from synthcompose.annotations import bbox3d_document, polygons_document
-    from synthcompose.render import amodal_boxes
     from synthcompose.compose import Composer, SceneLayers
     from synthcompose.geometry import disparity_to_depth, occluder_depth
     from synthcompose.labels import label_id
     from synthcompose.models import load_model
-    from synthcompose.render import Lighting, RenderObject, Renderer
+    from synthcompose.render import Lighting, Renderer, RenderObject, amodal_boxes
+    from synthcompose.synthetic import random_scene, render_scene
 
     from .helpers import pose_behind_a_pole
-    from synthcompose.synthetic import random_scene, render_scene
 
     scene = random_scene(np.random.default_rng([11, 0]), 1024, 512)
     arrays = render_scene(scene)

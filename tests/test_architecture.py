@@ -17,7 +17,7 @@ STAGE_OF = {
     "errors": 0, "fileio": 0, "json_layout": 0, "labels": 0, "colour": 0, "camera": 0, "dataset": 0, "malloc": 0,
     "builtin": 0, "plates": 0,
     "geometry": 1, "right_view": 1,
-    "placement": 2, "placements": 2, "surfaces": 2, "frequency": 2, "models": 2, "cast": 2,
+    "placement": 2, "saved_poses": 2, "surfaces": 2, "frequency": 2, "models": 2, "cast": 2,
     "lighting": 3, "appearance": 3, "look": 3, "manifest": 3,
     "gl": 4, "render": 4,
     "compose": 5,

@@ -207,7 +207,8 @@ JSON_BREAKAGES = {
     "exponent beyond a float": (_number("baseline", "1e999"), "number at 'extrinsic/baseline' is beyond the range"),
     "arrays thousands deep": (_number("u0", "[" * 5000 + "]" * 5000), "is nested more than 64 levels deep"),
     "arrays a hundred deep": (_number("v0", "[" * 100 + "]" * 100), "is nested more than 64 levels deep"),
-    "numbers as strings": (_number("fy", '"2262.5"'), "camera JSON 'intrinsic.fy' must be a finite number, found '2262.5' (a string)"),
+    "numbers as strings": (_number("fy", '"2262.5"'),
+                           "camera JSON 'intrinsic.fy' must be a finite number, found '2262.5' (a string)"),
     "a key twice": (_camera(lambda raw: raw.replace('"fx":', '"fx": 1, "fx":', 1)),
                     "gives the key 'fx' twice in the object at 'intrinsic'"),
     "a focal length of 1e-300": (_number("fx", "1e-300"), "camera JSON 'fx' is 1e-300 px, outside"),
@@ -309,7 +310,7 @@ def test_a_model_nothing_of_which_would_be_seen_is_refused_at_the_start(sample, 
 
 
 def test_an_object_with_no_visible_pixel_is_never_written(sample, tmp_path):
-    from synthcompose.placements import write_saved
+    from synthcompose.saved_poses import write_saved
 
     root, ids = sample
     out = tmp_path / "out"
@@ -441,7 +442,7 @@ SAVED = {
 
 
 def test_a_saved_pose_that_cannot_be_fails_its_image_set_naming_the_file(tmp_path):
-    from synthcompose.placements import FORMAT, placement_path
+    from synthcompose.saved_poses import FORMAT, placement_path
 
     root = tmp_path / "cs"
     ids = make_sample(root, count=len(SAVED) + 1, width=W, height=H, seed=3)

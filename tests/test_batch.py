@@ -17,7 +17,6 @@ from .helpers import OUT_KINDS, H, W, write_manifest
 from .tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
 
 
-
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> tuple[Path, list[ImageSetId]]:
     root = tmp_path_factory.mktemp("cityscapes")
@@ -193,9 +192,9 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     fail only their own image set."""
     from threadpoolctl import threadpool_info
 
-    from synthcompose.stages import write as write_stage
     from synthcompose.manifest import load_manifest
     from synthcompose.pipeline import Pipeline
+    from synthcompose.stages import write as write_stage
 
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=9)

@@ -14,8 +14,16 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 
-from synthcompose.cast import (CAST_PREFIX, STREET, cast_model, cast_rng, cast_root, draw_entry, load_catalogue,
-                               posed_person)
+from synthcompose.cast import (
+    CAST_PREFIX,
+    STREET,
+    cast_model,
+    cast_rng,
+    cast_root,
+    draw_entry,
+    load_catalogue,
+    posed_person,
+)
 from synthcompose.cli import main
 from synthcompose.dataset import read_image_set
 from synthcompose.errors import ManifestError, ModelError
@@ -67,7 +75,8 @@ def test_a_bad_entry_is_an_error_naming_its_file(tmp_path):
     path = root / "signs" / "de-206" / "entry.json"
     entry = json.loads(path.read_text())
     for bad, says in [({"weight": -1}, "field 'weight'"), ({"class": "tree-ish"}, "field 'class'"),
-                      ({"id": "other"}, "must be the name of its folder"), ({"model": "missing.glb"}, "'size' is a required property"),
+                      ({"id": "other"}, "must be the name of its folder"),
+                      ({"model": "missing.glb"}, "'size' is a required property"),
                       ({"sign": entry["sign"] | {"face": "nope.png"}}, "field 'sign/face'"),
                       ({"sign": entry["sign"] | {"below": [{"id": "de-999", "p": 0.5}]}}, "field 'sign/below'")]:
         path.write_text(json.dumps(entry | bad))

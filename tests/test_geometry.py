@@ -8,7 +8,6 @@ from synthcompose.errors import InputError
 from synthcompose.geometry import depth_to_disparity, disparity_to_depth, point_cloud
 
 from .helpers import make_camera
-
 from .tolerances import BACKPROJECTED_PLANE_M, DEPTH_ROUNDTRIP_DISPARITY_PX, FLOAT32_DISPARITY_PX, REPROJECTION_PX
 
 

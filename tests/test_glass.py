@@ -12,7 +12,7 @@ import pytest
 from synthcompose.colour import srgb_to_linear
 from synthcompose.models import MeshPart, Model
 from synthcompose.models.mesh import _finish_part
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
 from .tolerances import GLASS_INTERIOR_REL, GLASS_REFLECTION_REL, GLASS_TRANSMISSION_ABS

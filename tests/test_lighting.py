@@ -16,20 +16,36 @@ from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import Composer, SceneLayers
-from synthcompose.lighting.camera import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
 from synthcompose.errors import ManifestError
 from synthcompose.geometry import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, LUM, estimate_lighting
+from synthcompose.lighting.camera import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
 from synthcompose.manifest import parse_manifest
 from synthcompose.render import RenderPasses, Roi
 from synthcompose.synthetic import SceneLight, make_sample, random_scene, render_scene, render_scene_sunlit
 from synthcompose.synthetic.camera import recorded_colour
 
-from .tolerances import (BLUR_ESTIMATE_REL, COMPOSE_NOISE_MEAN_8BIT, COMPOSE_NOISE_SIGMA_REL, CONFIDENCE_MIN,
-                         LIGHTING_FLOAT_ABS, LIGHT_CHROMA_REL, NOISE_ESTIMATE_REL, OBJECT_BLUR_REL, RECORDED_NOISE_REL,
-                         SHADOW_LINE_AZIMUTH_DEG, SHADOW_LINE_DEG, SHARP_OBJECT_BLUR_PX, SKY_SHARE_ABS,
-                         SUN_AZIMUTH_DEG, SUN_AZIMUTH_MEDIAN_DEG, SUN_AZIMUTH_WITHIN_SHARE, SUN_FOUND_MIN,
-                         SUN_FOUND_SUNLIT_SHARE, SUN_MASK_GROUND_MAX)
+from .tolerances import (
+    BLUR_ESTIMATE_REL,
+    COMPOSE_NOISE_MEAN_8BIT,
+    COMPOSE_NOISE_SIGMA_REL,
+    CONFIDENCE_MIN,
+    LIGHT_CHROMA_REL,
+    LIGHTING_FLOAT_ABS,
+    NOISE_ESTIMATE_REL,
+    OBJECT_BLUR_REL,
+    RECORDED_NOISE_REL,
+    SHADOW_LINE_AZIMUTH_DEG,
+    SHADOW_LINE_DEG,
+    SHARP_OBJECT_BLUR_PX,
+    SKY_SHARE_ABS,
+    SUN_AZIMUTH_DEG,
+    SUN_AZIMUTH_MEDIAN_DEG,
+    SUN_AZIMUTH_WITHIN_SHARE,
+    SUN_FOUND_MIN,
+    SUN_FOUND_SUNLIT_SHARE,
+    SUN_MASK_GROUND_MAX,
+)
 
 #: The sun's direction and share are still checked on exact geometry and the clean shading
 #: (their cues - pairs of faces, shadow edges - need normals that real stereo gives only at

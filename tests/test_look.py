@@ -22,8 +22,16 @@ from synthcompose.lighting.camera import CameraMatch, ToneReference, estimate_bl
 from synthcompose.models import load_model
 from synthcompose.synthetic import make_sample
 
-from .tolerances import (CONTACT_DEPTH_REL, PALETTE_SUM_ABS, ROAD_TONE_8BIT, SAMPLED_BLUR_PX, SAMPLED_NOISE_REL,
-                         SHADOW_BLOTCHINESS_MAX, SHADOW_BLOTCHINESS_MEDIAN, TONE_8BIT)
+from .tolerances import (
+    CONTACT_DEPTH_REL,
+    PALETTE_SUM_ABS,
+    ROAD_TONE_8BIT,
+    SAMPLED_BLUR_PX,
+    SAMPLED_NOISE_REL,
+    SHADOW_BLOTCHINESS_MAX,
+    SHADOW_BLOTCHINESS_MEDIAN,
+    TONE_8BIT,
+)
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "models"
 CAR = str(ASSETS / "openmaterial_car" / "vehicle_example.gltf")

@@ -30,7 +30,8 @@ def test_gltf_car_is_long_along_x_and_scaled():
     _check(car, "length", 4.5)
     length, width, height = car.extents
     assert length > width > 1.5 and 1.2 < height < 1.8
-    assert all(p.texture is None for p in car.parts)  # its licence-plate texture ("License_Plate") is not drawn: each car's own plate is (test_plates.py)
+    # its licence-plate texture ("License_Plate") is not drawn: each car's own plate is (test_plates.py)
+    assert all(p.texture is None for p in car.parts)
 
 
 def test_gltf_person_is_upright():

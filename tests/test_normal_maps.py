@@ -10,11 +10,19 @@ from scipy import ndimage
 
 from synthcompose.colour import linear_to_srgb
 from synthcompose.models import load_model, vertex_tangents
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
-from .tolerances import (FILE_TANGENT_MIN_COS, FLAT_NORMAL_MAP_8BIT, NORMAL_MAP_MIN_RATIO, NORMAL_MAP_SHADING_REL,
-                         NORMAL_MAP_SHOWS_8BIT, NORMAL_SCALE_EFFECT_LINEAR, TANGENT_FLOAT, TANGENT_MIN_COS)
+from .tolerances import (
+    FILE_TANGENT_MIN_COS,
+    FLAT_NORMAL_MAP_8BIT,
+    NORMAL_MAP_MIN_RATIO,
+    NORMAL_MAP_SHADING_REL,
+    NORMAL_MAP_SHOWS_8BIT,
+    NORMAL_SCALE_EFFECT_LINEAR,
+    TANGENT_FLOAT,
+    TANGENT_MIN_COS,
+)
 
 # a 1 m quad standing in the file's y-z plane (glTF: y up) and facing -x; loaded with up +y and
 # forward +x it faces the camera (O: -x); u grows along the file's +z (O: -y, right in the image),

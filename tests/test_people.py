@@ -14,8 +14,7 @@ from synthcompose.models.gait import BETA, HEEL_OFF, HEEL_STRIKE
 from synthcompose.models.poses import draw_pose
 from synthcompose.models.skinning import Skin, SkinPart, pose_skin, read_skin, skinning_matrices
 
-from .tolerances import (PEOPLE_ARM_INSIDE_MAX, PEOPLE_FLAT_DEG, PEOPLE_GROUND_M, PEOPLE_LBS_EPS,
-                         PEOPLE_REST_EPS_M)
+from .tolerances import PEOPLE_ARM_INSIDE_MAX, PEOPLE_FLAT_DEG, PEOPLE_GROUND_M, PEOPLE_LBS_EPS, PEOPLE_REST_EPS_M
 
 PEOPLE = Path(__file__).resolve().parents[1] / "assets" / "cast" / "people"
 ENTRIES = sorted(PEOPLE.glob("*/entry.json"))
@@ -247,7 +246,7 @@ def test_people_clothes_are_recoloured_and_skin_is_not():
 # ---------------------------------------------------------------------- the renderer's cache
 @pytest.mark.slow
 def test_renderer_keeps_a_bounded_number_of_models(gl_clean):
-    from synthcompose.render import Lighting, RenderObject, Renderer
+    from synthcompose.render import Lighting, Renderer, RenderObject
     from synthcompose.render.renderer import MODELS_KEPT
 
     from .helpers import make_camera

@@ -7,14 +7,18 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry import disparity_to_depth, make_frame
-from synthcompose.placement import (ALLOWED_SURFACES, PlacementRules, frame_noise, place_object, prefilter,
-                                    strict_inside)
+from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, frame_noise, place_object, prefilter, strict_inside
 from synthcompose.synthetic import random_scene, render_scene
 
 from .helpers import SIZES
-
-from .tolerances import (CAR_YAW_TO_ROAD_DEG, FOOTPRINT_ALLOWED_MIN, FOOTPRINT_GAP_SLACK_M, PENETRATION_M,
-                         PREFILTER_MAX_SHARE, ground_z_tolerance)
+from .tolerances import (
+    CAR_YAW_TO_ROAD_DEG,
+    FOOTPRINT_ALLOWED_MIN,
+    FOOTPRINT_GAP_SLACK_M,
+    PENETRATION_M,
+    PREFILTER_MAX_SHARE,
+    ground_z_tolerance,
+)
 
 W, H = 1024, 512
 

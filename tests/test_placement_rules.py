@@ -11,18 +11,23 @@ from synthcompose.cli import main
 from synthcompose.compose import Composer, SceneLayers
 from synthcompose.frequency import count_classes, object_weights
 from synthcompose.geometry import disparity_to_depth, make_frame
-from synthcompose.surfaces import find_surfaces
 from synthcompose.labels import label_id
 from synthcompose.models import load_model
 from synthcompose.placement import PlacementRules, frame_noise, place_object
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
+from synthcompose.surfaces import find_surfaces
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
-from .tolerances import (BALANCE_FAVOURS_RATIO, CAR_YAW_TO_ROAD_DEG, GROUND_Z_M, OCCLUSION_DEPTH_MARGIN_M,
-                         ROAD_FOUND_PRECISION_MIN, ROAD_FOUND_RECALL_MIN, ground_z_tolerance)
-
-from .helpers import H, W, write_manifest
-from .helpers import SIZES, pose_behind_a_pole
+from .helpers import SIZES, H, W, pose_behind_a_pole, write_manifest
+from .tolerances import (
+    BALANCE_FAVOURS_RATIO,
+    CAR_YAW_TO_ROAD_DEG,
+    GROUND_Z_M,
+    OCCLUSION_DEPTH_MARGIN_M,
+    ROAD_FOUND_PRECISION_MIN,
+    ROAD_FOUND_RECALL_MIN,
+    ground_z_tolerance,
+)
 
 POLE, CAR, ROAD = label_id("pole"), label_id("car"), label_id("road")
 

@@ -11,7 +11,7 @@ from synthcompose.appearance import appearance_rng, draw_appearance
 from synthcompose.models import NEUTRAL_PLATE, load_model
 from synthcompose.placement import pose_matrix
 from synthcompose.plates import draw_registration, plate_image
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
 
@@ -82,3 +82,21 @@ def test_the_plate_is_rendered_on_the_car_and_only_there(gl_clean):
     assert 3 < width / height < 7 and changed.sum() < 0.1 * (ids == 1).sum()
     assert plated[changed].mean() < blank[changed].mean()
     assert not np.array_equal(plated, out["HH X 99"][0])
+
+
+def test_the_characters_have_the_standard_plates_proportions():
+    """DIN 74069: characters 75 mm high on the 110 mm plate, condensed (a letter about 40 mm of
+    ink in its 47.5 mm), one dark shape per character, the zero unslashed: what real German
+    plates show (the earlier wide, short font read as a foreign sticker next to real cars)."""
+    import cv2
+
+    for text in ("K AB 1234", "HRO WX 2000"):
+        img = plate_image(text, (520, 110))[..., :3]
+        dark = (img.max(axis=2) < 90).astype(np.uint8)
+        dark[:, :60], dark[:4], dark[-4:], dark[:, -4:] = 0, 0, 0, 0  # the band and the rim
+        n, _, stats, _ = cv2.connectedComponentsWithStats(dark)
+        shapes = stats[1:][stats[1:, 4] > 30]
+        assert len(shapes) == len(text.replace(" ", "")), text  # a slashed zero would be two shapes
+        heights, widths = shapes[:, 3] / 110, shapes[:, 2] / shapes[:, 3]
+        assert np.all(np.abs(heights - 75 / 110) < 0.03), heights
+        assert np.all(widths < 0.62) and np.median(widths) > 0.35, widths

@@ -18,14 +18,23 @@ from synthcompose.cli import main
 from synthcompose.dataset import read_image_set
 from synthcompose.manifest import load_manifest
 from synthcompose.placement import RULE_OF
-from synthcompose.placements import placement_path, read_saved
 from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
+from synthcompose.saved_poses import placement_path, read_saved
 from synthcompose.synthetic import make_sample
 
 from .helpers import write_manifest
-from .tolerances import (CHANGED_PIXEL_8BIT, OVERLAY_TEXT_CHANGED_MIN, PASS_CHANGE_MIN_SHARE, PREVIEW_MOVE_M,
-                         PREVIEW_PAN_REL, SAVED_MATRIX_ABS, VIEW_CHANGE_MIN_SHARE, WINDOW_MAX_SHARE, WINDOW_MEAN_8BIT,
-                         WINDOW_PIXEL_8BIT)
+from .tolerances import (
+    CHANGED_PIXEL_8BIT,
+    OVERLAY_TEXT_CHANGED_MIN,
+    PASS_CHANGE_MIN_SHARE,
+    PREVIEW_MOVE_M,
+    PREVIEW_PAN_REL,
+    SAVED_MATRIX_ABS,
+    VIEW_CHANGE_MIN_SHARE,
+    WINDOW_MAX_SHARE,
+    WINDOW_MEAN_8BIT,
+    WINDOW_PIXEL_8BIT,
+)
 
 W, H = 640, 320
 

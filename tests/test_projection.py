@@ -4,7 +4,7 @@ from scipy.spatial import ConvexHull
 
 from synthcompose.models import load_model
 from synthcompose.placement import pose_matrix
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
 from .tolerances import GL_PROJECTION_MATRIX_PX, PROJECTION_PX, SILHOUETTE_AREA_REL

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
+from evaluation.stereo_check import check_pair
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets
-from evaluation.stereo_check import check_pair
 
-from .real_root import REAL, needs_real
 from .helpers import write_manifest
+from .real_root import REAL, needs_real
 from .tolerances import PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN
 
 pytestmark = needs_real

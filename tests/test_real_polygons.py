@@ -11,8 +11,8 @@ import numpy as np
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.polygons import frame_polygons
 
-from .real_root import REAL, needs_real
 from .helpers import drawn_back
+from .real_root import REAL, needs_real
 from .tolerances import INSTANCES_DRAWN_BACK, LABELS_DRAWN_BACK
 
 pytestmark = needs_real

@@ -19,11 +19,19 @@ from synthcompose.placement import PlacementRules, check_pose, frame_noise, plac
 from synthcompose.placement.noise import SIGMA_MIN, StereoNoise, measure_sigma
 from synthcompose.surfaces import find_surfaces, frame_for
 
-from .real_root import REAL, needs_real
 from .helpers import SIZES
-from .tolerances import (NOISE_SIGMA_MEASURE_REL, NOISY_SCENE_SIGMA_D_PX, REAL_PLACED_MIN, REAL_ROAD_PRECISION_MIN,
-                         REAL_SIDEWALK_ROAD_MAX, REAL_SIDEWALK_WALKABLE_MIN, ROAD_FOUND_PRECISION_MIN,
-                         ROAD_FOUND_RECALL_SGM_MIN, SGM_PLACED_MIN)
+from .real_root import REAL, needs_real
+from .tolerances import (
+    NOISE_SIGMA_MEASURE_REL,
+    NOISY_SCENE_SIGMA_D_PX,
+    REAL_PLACED_MIN,
+    REAL_ROAD_PRECISION_MIN,
+    REAL_SIDEWALK_ROAD_MAX,
+    REAL_SIDEWALK_WALKABLE_MIN,
+    ROAD_FOUND_PRECISION_MIN,
+    ROAD_FOUND_RECALL_SGM_MIN,
+    SGM_PLACED_MIN,
+)
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
 from synthcompose.synthetic import random_scene, render_scene

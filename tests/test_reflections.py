@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from synthcompose.models import MeshPart, Model
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
 

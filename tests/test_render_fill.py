@@ -6,12 +6,21 @@ import pytest
 from scipy import ndimage
 
 from synthcompose.models import MeshPart, Model
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
-from .tolerances import (AA_ROWS_MIXED_MIN, AA_SHARE_STEP_MAX, EDGE_GROUND_EXCESS_LINEAR, PLANE_SEAM_LINEAR,
-                         RESOLVE_FLOAT_EPS, RESOLVE_SUBTRACT_EPS, SHADING_MODES_EDGE_LINEAR,
-                         SHADING_MODES_EDGE_QUANTILE, SHADING_MODES_INSIDE_LINEAR, SHADING_MODES_PLANE)
+from .tolerances import (
+    AA_ROWS_MIXED_MIN,
+    AA_SHARE_STEP_MAX,
+    EDGE_GROUND_EXCESS_LINEAR,
+    PLANE_SEAM_LINEAR,
+    RESOLVE_FLOAT_EPS,
+    RESOLVE_SUBTRACT_EPS,
+    SHADING_MODES_EDGE_LINEAR,
+    SHADING_MODES_EDGE_QUANTILE,
+    SHADING_MODES_INSIDE_LINEAR,
+    SHADING_MODES_PLANE,
+)
 
 LIGHT = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.5)
 RED, BLUE = (0.6, 0.05, 0.05), (0.05, 0.1, 0.6)

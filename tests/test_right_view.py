@@ -10,17 +10,23 @@ import cv2
 import numpy as np
 import pytest
 
+from evaluation.stereo_check import check_pair, seen_by_both
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.dataset import find_image_sets, read_image_set
 from synthcompose.fileio import decode_disparity, read_png
 from synthcompose.right_view import carry_to_right
-from evaluation.stereo_check import check_pair, seen_by_both
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .helpers import write_manifest
-from .tolerances import (PAIR_ELSEWHERE_SAME_MIN, PAIR_WITHIN_1PX_MEASURABLE_MIN, PAIR_WITHIN_1PX_MIN, RIGHT_CHANGE_MARGIN_PX,
-                         RIGHT_CHANGE_OUTSIDE_MAX, RIGHT_PHOTO_MATCH_MARGIN)
+from .tolerances import (
+    PAIR_ELSEWHERE_SAME_MIN,
+    PAIR_WITHIN_1PX_MEASURABLE_MIN,
+    PAIR_WITHIN_1PX_MIN,
+    RIGHT_CHANGE_MARGIN_PX,
+    RIGHT_CHANGE_OUTSIDE_MAX,
+    RIGHT_PHOTO_MATCH_MARGIN,
+)
 
 W, H = 1024, 512
 
@@ -187,7 +193,7 @@ def test_the_right_render_reuses_the_left_shadow_maps_with_the_same_pixels(gl_cl
     draws them once with the left view and gets what a fresh renderer draws."""
     from synthcompose.models import load_model
     from synthcompose.placement import pose_matrix
-    from synthcompose.render import Lighting, RenderObject, Renderer
+    from synthcompose.render import Lighting, Renderer, RenderObject
 
     from .helpers import make_camera
 

@@ -28,8 +28,7 @@ from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
 from synthcompose.synthetic import make_sample
 
-from .helpers import assert_resume_matches, crashing_worker, with_reference_run
-from .helpers import ASSETS, OUT_KINDS, write_manifest
+from .helpers import ASSETS, OUT_KINDS, assert_resume_matches, crashing_worker, with_reference_run, write_manifest
 from .tolerances import RSS_GROWTH_MB
 
 W, H = 320, 160

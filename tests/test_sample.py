@@ -14,10 +14,22 @@ from synthcompose.geometry import disparity_to_depth, point_cloud
 from synthcompose.labels import KNOWN_IDS, label_id
 from synthcompose.synthetic import StreetScene, make_sample, random_scene, render_scene
 
-from .tolerances import (BACKPROJECTED_HEIGHT_M, CAMERA_OFF_CENTRE_M, EXACT_DEPTH_HEIGHT_M, EXACT_HOLES_SHARE,
-                         FLOAT64_SLACK_M, GROUND_NORMAL_FD, GROUND_ORIGIN_EXACT_M, KERB_DIRECTION_DEG, POLE_BASE_M,
-                         TILT_SHOWS_M, TURNED_DEPTH_MEDIAN_REL, TURNED_DEPTH_REL, TURNED_DEPTH_SHARE,
-                         TURNED_LABELS_DIFFER_MAX)
+from .tolerances import (
+    BACKPROJECTED_HEIGHT_M,
+    CAMERA_OFF_CENTRE_M,
+    EXACT_DEPTH_HEIGHT_M,
+    EXACT_HOLES_SHARE,
+    FLOAT64_SLACK_M,
+    GROUND_NORMAL_FD,
+    GROUND_ORIGIN_EXACT_M,
+    KERB_DIRECTION_DEG,
+    POLE_BASE_M,
+    TILT_SHOWS_M,
+    TURNED_DEPTH_MEDIAN_REL,
+    TURNED_DEPTH_REL,
+    TURNED_DEPTH_SHARE,
+    TURNED_LABELS_DIFFER_MAX,
+)
 
 W, H, SEED, COUNT = 512, 256, 7, 2
 KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera")

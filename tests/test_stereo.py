@@ -14,14 +14,25 @@ import warnings
 import numpy as np
 import pytest
 
+from evaluation.stereo_stats import stereo_stats
 from synthcompose.dataset import read_image_set
 from synthcompose.labels import label_id
 from synthcompose.synthetic import make_sample, random_scene, render_scene
-from evaluation.stereo_stats import stereo_stats
 
-from .tolerances import (CLEAN_PHOTO_NOISE, EGO_INVALID_MIN, EXACT_NORMALS_UP_MIN, EXACT_RESIDUAL_MAX_PX,
-                         EXACT_VALID_MIN, FATTENING_MIN, FATTENING_REL, OCCLUSION_LEFT_INVALID_MIN,
-                         OCCLUSION_RIGHT_INVALID_MAX, REAL_PHOTO_RANGES, REAL_STEREO_RANGES, SKY_INVALID_SHARE)
+from .tolerances import (
+    CLEAN_PHOTO_NOISE,
+    EGO_INVALID_MIN,
+    EXACT_NORMALS_UP_MIN,
+    EXACT_RESIDUAL_MAX_PX,
+    EXACT_VALID_MIN,
+    FATTENING_MIN,
+    FATTENING_REL,
+    OCCLUSION_LEFT_INVALID_MIN,
+    OCCLUSION_RIGHT_INVALID_MAX,
+    REAL_PHOTO_RANGES,
+    REAL_STEREO_RANGES,
+    SKY_INVALID_SHARE,
+)
 
 W, H = 1024, 512
 SKY, EGO = label_id("sky"), label_id("ego vehicle")

@@ -16,7 +16,7 @@ from synthcompose.placement.traffic import SIGN_EDGE, sign_distance
 from synthcompose.synthetic import StreetKind, random_scene, render_scene
 
 from .helpers import SIZES
-from .tolerances import (CAR_YAW_TO_ROAD_DEG, LANE_CENTRED_M, STREET_CENTRE_M, STREET_KERB_M, TRAFFIC_PLACED_MIN)
+from .tolerances import CAR_YAW_TO_ROAD_DEG, LANE_CENTRED_M, STREET_CENTRE_M, STREET_KERB_M, TRAFFIC_PLACED_MIN
 
 W, H = 1024, 512
 RULES = PlacementRules(distance=(7.0, 40.0))

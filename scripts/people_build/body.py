@@ -14,8 +14,20 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .makehuman import (Proxy, bone_heads, dense_weights, fit_proxy, load_json, macro_targets, proxy_weights,
-                        read_mhclo, read_obj, read_target, triangles, vertex_groups)
+from .makehuman import (
+    Proxy,
+    bone_heads,
+    dense_weights,
+    fit_proxy,
+    load_json,
+    macro_targets,
+    proxy_weights,
+    read_mhclo,
+    read_obj,
+    read_target,
+    triangles,
+    vertex_groups,
+)
 from .sources import Sources
 
 #: bones folded into their parent (face, tongue, eyes, toes, breasts): their weights go to the

@@ -60,7 +60,6 @@ def write_glb(body: Body, materials: dict[str, dict], name: str, extras: dict) -
     sk = body.skeleton
     prims = []
     for part in body.parts:
-        mat = materials[part.material]
         attrs = {
             "POSITION": buf.add(part.positions.astype(np.float32), "VEC3", _FLOAT, _ARRAY, minmax=True),
             "NORMAL": buf.add(part.normals.astype(np.float32), "VEC3", _FLOAT, _ARRAY),

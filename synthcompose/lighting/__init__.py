@@ -87,8 +87,7 @@ from __future__ import annotations
 from . import estimate, lines
 from .camera import CameraMatch, estimate_blur, estimate_noise
 from .estimate import estimate_lighting
-from .light import (GROUND_IDS, LUM, OCCLUDER_IDS, SHADING_IDS, LightEstimate, Lighting, camera_noise_seed,
-                    fixed_record)
+from .light import GROUND_IDS, LUM, OCCLUDER_IDS, SHADING_IDS, LightEstimate, Lighting, camera_noise_seed, fixed_record
 
 __all__ = ["CameraMatch", "GROUND_IDS", "LUM", "LightEstimate", "Lighting", "OCCLUDER_IDS", "SHADING_IDS", "camera_noise_seed",
            "estimate", "estimate_blur", "estimate_lighting", "estimate_noise", "fixed_record", "lines"]

@@ -11,7 +11,6 @@ import numpy as np
 from ..colour import LUM, linear_to_srgb, srgb_to_linear
 from ..labels import category_ids, label_id
 
-
 #: what :func:`estimate_blur` measures on an ideal step edge box-filtered over the pixel
 BOX_EDGE_SIGMA = 0.82
 #: what it measures on the renderer's objects without the camera match: sharper than a box

@@ -7,10 +7,9 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
-from .light import OCCLUDER_IDS
 from .grid import _Grid
+from .light import OCCLUDER_IDS
 from .shadows import _ground_cells
-
 
 CASTER_MAX_HEIGHT = 6.0  # metres above their ground: the caster points used (lower parts of walls)
 CASTER_POINTS = 1500  # at most, evenly spread over the casters

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..placement.noise import STEP, measure_sigma
-from .light import GROUND_IDS, LUM, _FINE_IDS, _LUT
+from .light import _FINE_IDS, _LUT, GROUND_IDS, LUM
 
 
 @dataclass(eq=False)

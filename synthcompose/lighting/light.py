@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..colour import LUM as _LUM, SRGB8_TO_LINEAR
+from ..colour import LUM as _LUM
+from ..colour import SRGB8_TO_LINEAR
 from ..labels import category_ids, label_ids
-
 
 LUM = _LUM  # Rec. 709 luminance weights of linear RGB
 #: typical albedo of asphalt and of sidewalk paving (linear luminance): the exposure reference

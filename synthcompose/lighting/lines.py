@@ -8,11 +8,10 @@ import numpy as np
 
 from ..camera import Camera
 from ..labels import label_ids
-from .light import LUM
 from .grid import _Grid
+from .light import LUM
+from .pairs import _pair_fit, _PairCue
 from .shadows import _Mixture, _ShadowCue
-from .pairs import _PairCue, _pair_fit
-
 
 #: a straight edge between lit and shadowed ground at least this long (metres, on the ground
 #: plan) and off the street's axis and its normal by more than LINE_AXIS_BAND degrees is the

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .light import SHADING_IDS, _direction
 from .grid import _Grid
+from .light import SHADING_IDS, _direction
 
 
 @dataclass(eq=False)

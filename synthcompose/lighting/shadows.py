@@ -8,9 +8,8 @@ import cv2
 import numpy as np
 
 from ..camera import Camera
-from .light import GROUND_IDS, OCCLUDER_IDS
 from .grid import _Grid
-
+from .light import GROUND_IDS, OCCLUDER_IDS
 
 CELL = 0.25  # height-map cell, metres
 UNSEEN_TOP = 20.0  # metres: what an occluder cut by the image top may reach

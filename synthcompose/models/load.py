@@ -15,9 +15,7 @@ import numpy as np
 from ..colour import srgb_to_linear
 from ..errors import ModelError
 from .builtin import BUILTINS
-from .mesh import (_AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MeshPart, Model, _finish_part,
-                   _part_from_trimesh)
-
+from .mesh import _AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MeshPart, Model, _finish_part, _part_from_trimesh
 
 # trimesh drops a glTF's TANGENT attribute and normalTexture.scale; a file with normal maps is
 # handed to it with its JSON edited in memory: TANGENT also under this name (trimesh keeps

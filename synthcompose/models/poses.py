@@ -90,7 +90,7 @@ def _outward(pos, tri, nrm) -> np.ndarray:
 # ---------------------------------------------------------------------- standing
 def standing(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, tuple | None, str | None]:
     """Weight on one leg, the other foot a little forward and out, both flat; arms by variant."""
-    info, s = b.info, b.info.stature / 1.75
+    s = b.info.stature / 1.75
     names = [v for v, _ in STANDING]
     shares = np.array([w for _, w in STANDING])
     variant = names[int(rng.choice(len(names), p=shares / shares.sum()))]

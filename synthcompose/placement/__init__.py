@@ -11,15 +11,39 @@ centre line, crossings), ``parked`` (the frame's own parked rows), ``lanes`` (la
 directions), ``traffic`` (a candidate's place in traffic: :class:`Traffic`) and ``verdict``
 (the traffic rules of a finished pose, part of :func:`check_pose`).
 """
-from .boxes import (FOOTPRINT_SAMPLES, _visibility, footprint_corners, footprint_grid, footprints_overlap,
-                    penetration, pose_matrix, prefilter, rays_hit_box, strict_inside)
+from .boxes import (
+                    FOOTPRINT_SAMPLES,
+                    _visibility,
+                    footprint_corners,
+                    footprint_grid,
+                    footprints_overlap,
+                    penetration,
+                    pose_matrix,
+                    prefilter,
+                    rays_hit_box,
+                    strict_inside,
+)
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
 from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_clearance
 from .road import RoadLine, fit_road_line, road_line, surface_edges
-from .rules import (ALLOWED_SURFACES, GROUND_LEVEL, INLIER_BAND, KERB_CLEARANCE, MAX_PENETRATION, ORIENTATION,
-                    ORIENTATIONS, POSE_GROUND_SEARCH, RULE_OF, Placement, PlacementResult, PlacementRules, Rejection,
-                    box_corners, label_mask)
+from .rules import (
+                    ALLOWED_SURFACES,
+                    GROUND_LEVEL,
+                    INLIER_BAND,
+                    KERB_CLEARANCE,
+                    MAX_PENETRATION,
+                    ORIENTATION,
+                    ORIENTATIONS,
+                    POSE_GROUND_SEARCH,
+                    RULE_OF,
+                    Placement,
+                    PlacementResult,
+                    PlacementRules,
+                    Rejection,
+                    box_corners,
+                    label_mask,
+)
 from .search import place_object
 from .street import Street, find_street
 from .traffic import Traffic

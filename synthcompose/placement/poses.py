@@ -15,15 +15,36 @@ import numpy as np
 
 from ..geometry import Frame
 from ..labels import label_id
-from .boxes import (_box_samples, _hides_others, _visibility, box_corners, footprint_corners, footprint_grid,
-                    footprints_overlap, penetration, rays_hit_box, strict_inside)
+from .boxes import (
+    _box_samples,
+    _hides_others,
+    _visibility,
+    box_corners,
+    footprint_corners,
+    footprint_grid,
+    footprints_overlap,
+    penetration,
+    rays_hit_box,
+    strict_inside,
+)
 from .ground import GroundFit, local_ground
 from .noise import StereoNoise, stereo_noise
 from .road import surface_edges
+
 if TYPE_CHECKING:
     from .traffic import Traffic
-from .rules import (GROUND_LEVEL, KERB_CLEARANCE, MAX_PENETRATION, POSE_GROUND_SEARCH,
-                    SUPPORT_BAND, Placement, PlacementRules, Rejection, label_mask, surfaces_for)
+from .rules import (
+    GROUND_LEVEL,
+    KERB_CLEARANCE,
+    MAX_PENETRATION,
+    POSE_GROUND_SEARCH,
+    SUPPORT_BAND,
+    Placement,
+    PlacementRules,
+    Rejection,
+    label_mask,
+    surfaces_for,
+)
 
 #: a footprint sample is seen when the real depth there is not nearer than the sample by more
 #: than this (relative, absolute) or the stereo band

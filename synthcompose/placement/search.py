@@ -34,10 +34,18 @@ from ..geometry import Frame, back_project, nearest_in_row, pinhole
 from ..labels import label_id
 from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests, check_pose
-from .traffic import (TRAFFIC_ORIENTATIONS, hand_of, person_spot, sign_spot, street_of, traffic_candidates,
-                      vehicle_spot)
-from .rules import (GROUND_LEVEL, ORIENTATIONS, Placement, PlacementResult,
-                    PlacementRules, Rejection, label_mask, orientation_for, surfaces_for)
+from .rules import (
+    GROUND_LEVEL,
+    ORIENTATIONS,
+    Placement,
+    PlacementResult,
+    PlacementRules,
+    Rejection,
+    label_mask,
+    orientation_for,
+    surfaces_for,
+)
+from .traffic import TRAFFIC_ORIENTATIONS, hand_of, person_spot, sign_spot, street_of, traffic_candidates, vehicle_spot
 
 UP = np.array([0.0, 0.0, 1.0])
 #: candidates are drawn among every STRIDE-th pixel of each row and column

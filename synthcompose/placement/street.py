@@ -37,8 +37,23 @@ from ..geometry import Frame
 from ..labels import label_id
 from .markings import find_markings
 from .road import surface_edges
-from .street_lines import (AXIS_FAR, FAR, MIN_KERB_COVER, MIN_MARK_COVER, NEAR, NEAR_STRETCH, S_BIN, SOLID_RUN, SPAN,
-                           StreetLine, _axis, _coverage, _drop_rails, _lines, to_road)
+from .street_lines import (
+    AXIS_FAR,
+    FAR,
+    MIN_KERB_COVER,
+    MIN_MARK_COVER,
+    NEAR,
+    NEAR_STRETCH,
+    S_BIN,
+    SOLID_RUN,
+    SPAN,
+    StreetLine,
+    _axis,
+    _coverage,
+    _drop_rails,
+    _lines,
+    to_road,
+)
 
 #: the ego vehicle's lane reaches this far to each side of it (a centre line is beyond it), and
 #: its place across the street is taken this far ahead (metres)

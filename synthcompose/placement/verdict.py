@@ -29,8 +29,17 @@ from ..labels import label_id
 from .lanes import lane_at, lanes
 from .rules import GROUND_LEVEL, Rejection, label_mask
 from .street import EGO_HALF_LANE
-from .traffic import (SIGN_EDGE, Traffic, _side_street_spot, footway_kerb, hand_of, lane_room, parking_fit,
-                      sign_distance, street_of)
+from .traffic import (
+    SIGN_EDGE,
+    Traffic,
+    _side_street_spot,
+    footway_kerb,
+    hand_of,
+    lane_room,
+    parking_fit,
+    sign_distance,
+    street_of,
+)
 
 #: a moving vehicle's centre is this close to its lane's centre (metres)
 LANE_CENTRED = 0.3

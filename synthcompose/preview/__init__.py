@@ -11,11 +11,32 @@ Only :mod:`.window` touches a windowing toolkit; everything else runs headless.
 from __future__ import annotations
 
 from .export import BOX_EDGES, box_mesh, export_ply, plane_quad
-from .overlay import (ACCEPTED_COLOUR, BOX_COLOUR, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PLANE_COLOUR,
-                      SELECTED_BOX_COLOUR, TEXT_COLOUR, Overlay, view_legend)
-from .session import (ID_COLOURS, PASS_TITLES, PASSES, REASON_COLOURS, STEP_M, STEP_YAW_DEG, PlacedObject,
-                      PlacementRefused, PreviewSession, Verdict, View)
 from .orbit import Orbit
+from .overlay import (
+                      ACCEPTED_COLOUR,
+                      BOX_COLOUR,
+                      FAIL_COLOUR,
+                      NOTE_COLOUR,
+                      OK_COLOUR,
+                      PLANE_COLOUR,
+                      SELECTED_BOX_COLOUR,
+                      TEXT_COLOUR,
+                      Overlay,
+                      view_legend,
+)
+from .session import (
+                      ID_COLOURS,
+                      PASS_TITLES,
+                      PASSES,
+                      REASON_COLOURS,
+                      STEP_M,
+                      STEP_YAW_DEG,
+                      PlacedObject,
+                      PlacementRefused,
+                      PreviewSession,
+                      Verdict,
+                      View,
+)
 from .window import HELP, KEYS, PreviewWindow, run_preview
 
 __all__ = ["ACCEPTED_COLOUR", "BOX_COLOUR", "BOX_EDGES", "FAIL_COLOUR", "HELP", "ID_COLOURS", "KEYS", "NOTE_COLOUR",

@@ -19,15 +19,22 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..colour import linear_to_srgb
 from ..dataset import ImageSetId
 from ..errors import SynthComposeError
 from ..geometry import Frame
-from ..colour import linear_to_srgb
 from ..labels import COLOR_LUT
 from ..manifest import Manifest
 from ..placement import Placement, Rejection, check_pose
-from ..placements import (IGNORE_SAVED, SavedObject, SavedPlacement, ground_pose, placement_path, read_saved,
-                          write_saved)
+from ..saved_poses import (
+    IGNORE_SAVED,
+    SavedObject,
+    SavedPlacement,
+    ground_pose,
+    placement_path,
+    read_saved,
+    write_saved,
+)
 from ..stages import measure_light, place, prepare, shade
 from .export import export_ply
 

@@ -20,10 +20,10 @@ from ..errors import SynthComposeError
 from ..gl import GLContext
 from ..manifest import Manifest
 from ..render.transforms import gl_mat4
+from . import overlay as ov
 from .export import BOX_EDGES, box_mesh, plane_quad
 from .orbit import Orbit
-from .overlay import (ACCEPTED_COLOUR, BOX_COLOUR, FAIL_COLOUR, NOTE_COLOUR, OK_COLOUR, PLANE_COLOUR,
-                      SELECTED_BOX_COLOUR, TEXT_COLOUR, Overlay, view_legend)
+from .overlay import Overlay, view_legend
 from .session import PASS_TITLES, PASSES, STEP_M, STEP_YAW_DEG, PlacementRefused, PreviewSession
 
 #: (key, what it does): the console and on-screen help
@@ -186,7 +186,7 @@ class PreviewWindow:
         for i, o in enumerate(v.objects):
             m = o.placement.matrix
             corners, _ = box_mesh(m, o.extents)
-            c = SELECTED_BOX_COLOUR if i == self.session.selected else BOX_COLOUR
+            c = ov.SELECTED_BOX_COLOUR if i == self.session.selected else ov.BOX_COLOUR
             for a, b in BOX_EDGES:
                 lines += [corners[a], corners[b]]
                 lcol += [c, c]
@@ -194,13 +194,13 @@ class PreviewWindow:
             for t in np.linspace(0.0, 1.0, 5):  # the fitted ground plane as a grid
                 for a, b, cc, d in ((0, 1, 3, 2), (0, 3, 1, 2)):
                     lines += [q[a] + t * (q[cc] - q[a]), q[b] + t * (q[d] - q[b])]
-                    lcol += [PLANE_COLOUR] * 2
+                    lcol += [ov.PLANE_COLOUR] * 2
         add(np.array(lines).reshape(-1, 3), np.array(lcol).reshape(-1, 3), moderngl.LINES)
         colours = v.reason_colour()
         if v.trace:
             add(np.array([p for p, _ in v.trace]), np.array([colours[w] for _, w in v.trace]), moderngl.POINTS, 7.0)
         if v.objects:
-            add(np.array([o.placement.position for o in v.objects]), np.array([ACCEPTED_COLOUR] * len(v.objects)),
+            add(np.array([o.placement.position for o in v.objects]), np.array([ov.ACCEPTED_COLOUR] * len(v.objects)),
                 moderngl.POINTS, 10.0)
 
     @property
@@ -213,11 +213,11 @@ class PreviewWindow:
         the last message; the 3D view's colours; the keys when help is on."""
         s, v = self.session, self.session.view
         verdict = v.verdict
-        colour = NOTE_COLOUR if not v.objects else OK_COLOUR if verdict.ok else FAIL_COLOUR
-        lines = [(f"{self.what} | {v.ident.key} ({s.index + 1}/{len(s.ids)}) | H: help", TEXT_COLOUR),
-                 (s.objects_line(), TEXT_COLOUR), (str(verdict), colour)]
+        colour = ov.NOTE_COLOUR if not v.objects else ov.OK_COLOUR if verdict.ok else ov.FAIL_COLOUR
+        lines = [(f"{self.what} | {v.ident.key} ({s.index + 1}/{len(s.ids)}) | H: help", ov.TEXT_COLOUR),
+                 (s.objects_line(), ov.TEXT_COLOUR), (str(verdict), colour)]
         if self.message:
-            lines.append((self.message, NOTE_COLOUR))
+            lines.append((self.message, ov.NOTE_COLOUR))
         return Overlay(tuple(lines), view_legend(v) if self.mode_3d else (),
                        tuple(f"{k}\t{what}" for k, what in KEYS) if self.show_help else ())
 

@@ -18,14 +18,14 @@ from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from ..lighting import fixed_record
 from ..manifest import Manifest, ObjectSpec
 from ..models import Model, load_model, posable, pose_rng, posed_model
-from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
-from ..placement.noise import StereoNoise
 from ..models.poses import KINDS, WALKING_SHARE
-from ..placement.rules import orientation_for, rules_dict
+from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
 from ..placement.lanes import lanes
+from ..placement.noise import StereoNoise
+from ..placement.rules import orientation_for, rules_dict
 from ..placement.traffic import hand_of
-from ..placements import SavedPlacement, pose_problem, saved_result
 from ..record import ImageSetRecord
+from ..saved_poses import SavedPlacement, pose_problem, saved_result
 from .prepare import Prepared
 from .timing import timed
 
@@ -75,7 +75,7 @@ class Placed:
 
 
 def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
-    """The manifest object a saved placement names (placements.py)."""
+    """The manifest object a saved placement names (saved_poses.py)."""
     name = saved.objects[k].name
     for spec in m.objects:
         if spec.name == name:

@@ -15,7 +15,7 @@ import numpy as np
 from ..compose import FRONT_LABELS, Composer, SceneLayers, label_mask
 from ..lighting import CameraMatch
 from ..lighting.light import Lighting
-from ..render import RenderObject, Renderer
+from ..render import Renderer, RenderObject
 from ..render.values import roi_for
 from ..right_view import carry_to_right
 from .prepare import Prepared

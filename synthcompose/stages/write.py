@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 
 from ..annotations import write_frame_annotations
-from ..fileio import encode_rle
 from ..dataset import ImageSetId
 from ..errors import SynthComposeError
+from ..fileio import encode_rle
 from ..labels import label_id
 from ..manifest import Manifest
-from ..render import mask_box
 from ..record import ObjectPose, ObjectRecord, Status
+from ..render import mask_box
 from ..writer import write_outputs, write_record
 from .place import Placed
 from .shade import Shaded

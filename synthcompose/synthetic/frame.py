@@ -11,8 +11,20 @@ import numpy as np
 from ..geometry import depth_to_disparity
 from ..labels import label_id
 from .camera import NOISE_SHARE, PHOTO_MODES, camera_look
-from .raycast import (PID_EGO, PID_FIRST_OBJECT, PID_KERB, PID_ROAD, PID_SIDEWALK, PID_SKY, Buffers,
-                      cast_box, cast_ground, cast_pole, ego_mask, street_rays)
+from .raycast import (
+    PID_EGO,
+    PID_FIRST_OBJECT,
+    PID_KERB,
+    PID_ROAD,
+    PID_SIDEWALK,
+    PID_SKY,
+    Buffers,
+    cast_box,
+    cast_ground,
+    cast_pole,
+    ego_mask,
+    street_rays,
+)
 from .scene import StreetScene
 from .shading import shade
 from .stereo import STEREO_MODES, sgm_disparity

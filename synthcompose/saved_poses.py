@@ -27,8 +27,16 @@ from .errors import InputError
 from .fileio import read_json, write_json
 from .geometry import Frame
 from .labels import label_id
-from .placement import (GROUND_LEVEL, Placement, PlacementResult, _visibility, box_corners, fit_ground, ground_points,
-                        pose_matrix)
+from .placement import (
+    GROUND_LEVEL,
+    Placement,
+    PlacementResult,
+    _visibility,
+    box_corners,
+    fit_ground,
+    ground_points,
+    pose_matrix,
+)
 
 FORMAT = "synthcompose-placement/1"
 #: PreviewSession.load override: draw a random placement even where a file is saved
