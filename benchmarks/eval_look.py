@@ -46,7 +46,7 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, car_weight: f
     m = json.loads(demo_manifest(root, out, objects, seed, folder).read_text())
     for obj in m["objects"]:
         if obj["class"] == "car":
-            obj["weight"] = car_weight
+            obj["weight"] = obj.get("weight", 1.0) * car_weight
     m["lighting"] = {"mode": "estimate", "camera_match": True}
     path = folder / f"look_manifest_{seed}.json"
     path.write_text(json.dumps(m, indent=2))

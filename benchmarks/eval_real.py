@@ -37,8 +37,16 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path)
     ``root``."""
     demo = REPO / "assets" / "demo" / "manifest.json"
     m = json.loads(demo.read_text())
+    if "cast" in m:  # the built-in cast as its pools, each with its class (callers weigh them)
+        from synthcompose.cast import CASTS, load_catalogue
+
+        catalogue = load_catalogue()
+        pools = CASTS[m.pop("cast")]
+        m["objects"] = m.get("objects", []) + [
+            {"name": name, "model": f"cast:{sel}", "class": catalogue.pool(sel)[0].class_name, "weight": w}
+            for name, sel, w in pools if catalogue.pool(sel)]
     for obj in m.get("objects", []):
-        if not obj["model"].startswith("builtin:"):
+        if not obj["model"].startswith(("builtin:", "cast:")):
             obj["model"] = str((demo.parent / obj["model"]).resolve())
     splits = sorted({i.split for i in find_image_sets(root)})
     m.update(dataset=str(root), output=str(out), splits=splits, seed=seed, objects_per_image=objects)

@@ -27,6 +27,7 @@ out vec4 v_color;
 out vec2 v_material;
 out vec4 v_tangent;
 out float v_depth;
+out vec2 v_local;            // the model's own x, y: on a ground plane, its unit square
 flat out float v_ground_z;   // height of the object's contact point (reflection proxy)
 void main() {
     vec4 world = u_model * vec4(in_position, 1.0);
@@ -38,6 +39,7 @@ void main() {
     v_material = in_material;
     v_tangent = vec4(mat3(u_model) * in_tangent.xyz, in_tangent.w);
     v_depth = optical.z;
+    v_local = in_position.xy;
     v_ground_z = u_model[3].z;
     gl_Position = u_proj * optical;
 }
@@ -50,6 +52,7 @@ in vec4 v_color;
 in vec2 v_material;
 in vec4 v_tangent;              // (tangent along +u, handedness): glTF's TANGENT (models.py)
 in float v_depth;
+in vec2 v_local;
 flat in float v_ground_z;
 uniform sampler2D u_texture;    // sRGB base colour (TEXTURE)
 uniform sampler2D u_normal_map; // tangent-space normals (linear), glTF's normalTexture
@@ -62,11 +65,16 @@ uniform vec3 u_sun_dir;         // vehicle frame, towards the sun
 uniform vec3 u_sun_rgb;         // irradiance on a surface facing the sun
 uniform vec3 u_sky_rgb;         // ambient from the upper hemisphere
 uniform vec3 u_ground_rgb;      // ambient bounced from the ground
-uniform sampler2DShadow u_sun_map;
+uniform sampler2D u_sun_map;    // depth of the objects seen from the sun (no compare)
 uniform mat4 u_sun_matrix;      // vehicle -> sun shadow map [0,1]^3
-uniform sampler2DShadow u_sky_map;
+uniform sampler2D u_sky_map;    // depth of the objects seen from straight above (no compare)
 uniform mat4 u_sky_matrix;      // vehicle -> top-down occlusion map [0,1]^3
-uniform float u_sky_radius;     // occlusion search radius in map units
+uniform float u_map_metres;     // metres across every light map (their square's side)
+uniform float u_sun_radius;     // tangent of the sun's angular radius
+uniform vec2 u_plane_half;      // this ground plane's half sizes, metres (PLANE)
+uniform float u_plane_fade;     // its darkening fades out over this many metres to its edges
+uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
+const float GROUND_SKY_BLUR = 0.25;  // metres
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
@@ -99,25 +107,36 @@ const vec2 DISC[12] = vec2[](vec2(-0.326, -0.406), vec2(-0.840, -0.074), vec2(-0
     vec2(0.185, -0.893), vec2(0.507, 0.064), vec2(0.896, 0.412), vec2(-0.322, -0.933),
     vec2(-0.792, -0.598));
 
+// The sun's visibility at p, with the penumbra of a sun of angular radius u_sun_radius: the
+// objects' depths seen from the sun within a search disc give the mean blocker's distance d
+// above p along the light; the shadow's edge is then d * u_sun_radius soft (radius). The
+// filter's disc is widened by the pixel's own footprint on the receiver (half a pixel each
+// way, along the two image axes: the camera's blur, and no aliasing of the map where a far
+// pixel covers many texels). Percentage-closer filtering over that ellipse.
 float sun_visibility(vec3 p) {
     vec4 s = u_sun_matrix * vec4(p, 1.0);
-    float vis = 0.0;
-    vec2 texel = 1.0 / vec2(textureSize(u_sun_map, 0));
-    for (int i = 0; i < 12; ++i)
-        vis += texture(u_sun_map, vec3(s.xy + DISC[i] * 2.0 * texel, s.z - 0.002));
-    return vis / 12.0;
-}
-
-float sky_visibility(vec3 p) {
-    // share of two discs around p (u_sky_radius and 2.5 times it) with nothing of the objects
-    // above: the sky an object hides from the ground falls off smoothly over about its height
-    vec4 s = u_sky_matrix * vec4(p, 1.0);
-    float vis = texture(u_sky_map, vec3(s.xy, s.z - 0.002));
+    vec2 a = 0.5 * (mat3(u_sun_matrix) * dFdx(p)).xy;  // half a pixel, in map units
+    vec2 b = 0.5 * (mat3(u_sun_matrix) * dFdy(p)).xy;
+    float texel = 1.0 / float(textureSize(u_sun_map, 0).x);
+    float search = max(0.35 / u_map_metres, 2.0 * max(length(a), length(b)));
+    float blockers = 0.0, n = 0.0;
     for (int i = 0; i < 12; ++i) {
-        vis += texture(u_sky_map, vec3(s.xy + DISC[i] * u_sky_radius, s.z - 0.002));
-        vis += texture(u_sky_map, vec3(s.xy - DISC[i] * 2.5 * u_sky_radius, s.z - 0.002));
+        float d = texture(u_sun_map, s.xy + DISC[i] * search).r;
+        if (d < s.z - 0.002) { blockers += d; n += 1.0; }
     }
-    return vis / 25.0;
+    float d0 = texture(u_sun_map, s.xy).r;
+    if (d0 < s.z - 0.002) { blockers += d0; n += 1.0; }
+    if (n == 0.0) return 1.0;  // nothing between p and the sun near it
+    float distance = (s.z - blockers / n) * u_under_range;  // metres from the blockers to p
+    float r = max(distance * u_sun_radius / u_map_metres, texel);
+    // the ellipse r^2 I + a a' + b b', by its square root (closed form for a 2 x 2 matrix)
+    mat2 cov = mat2(r * r) + outerProduct(a, a) + outerProduct(b, b);
+    float sq = sqrt(max(determinant(cov), 0.0));
+    mat2 m = (cov + mat2(sq)) / sqrt(max(cov[0][0] + cov[1][1] + 2.0 * sq, 1e-20));
+    float vis = step(s.z - 0.002, d0);
+    for (int i = 0; i < 12; ++i)
+        vis += step(s.z - 0.002, texture(u_sun_map, s.xy + m * DISC[i]).r);
+    return vis / 13.0;
 }
 
 float contact_occlusion(vec3 p) {
@@ -138,9 +157,9 @@ float contact_occlusion(vec3 p) {
 // waist line): its ambient light and reflections fall off there.
 float object_occlusion(vec3 p, float height) {
     vec4 s = u_sky_matrix * vec4(p, 1.0);
-    float open = texture(u_sky_map, vec3(s.xy, s.z - u_self_bias));
+    float open = step(s.z - u_self_bias, texture(u_sky_map, s.xy).r);
     for (int i = 0; i < 6; ++i)  // a few centimetres around: no jagged edge where it turns
-        open += texture(u_sky_map, vec3(s.xy + DISC[i] * 0.3 * u_contact_radius, s.z - u_self_bias));
+        open += step(s.z - u_self_bias, texture(u_sky_map, s.xy + DISC[i] * 0.3 * u_contact_radius).r);
     return mix(0.35, 1.0, smoothstep(0.0, 0.4, height)) * mix(0.4, 1.0, open / 7.0);
 }
 
@@ -208,8 +227,17 @@ void main() {
     float sun_vis = 1.0;
     float sky_vis = 1.0;
 #else
-    float sun_vis = sun_visibility(v_world);
-    float sky_vis = mix(0.3, 1.0, sky_visibility(v_world)) * (1.0 - 0.85 * contact_occlusion(v_world));
+    // the objects' darkening fades out before the plane's edges: no outline of the receiver
+    vec2 edge = (1.0 - abs(v_local)) * u_plane_half;
+    float fade = smoothstep(0.0, u_plane_fade, min(edge.x, edge.y));
+    float sun_vis = mix(1.0, sun_visibility(v_world), fade);
+    // the ground's sky (ground_sky.glsl), read over a disc of GROUND_SKY_BLUR metres
+    vec2 g = (u_sky_matrix * vec4(v_world, 1.0)).xy;
+    float open = texture(u_ground_sky, g).r;
+    for (int i = 0; i < 12; ++i)
+        open += texture(u_ground_sky, g + DISC[i] * (GROUND_SKY_BLUR / u_map_metres)).r;
+    open /= 13.0;
+    float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
 #endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
     vec3 sun_rgb = u_sun_rgb * sun_scale;

@@ -37,7 +37,7 @@ def _make_sample(args: argparse.Namespace) -> int:
 
     width, height = args.size
     ids = make_sample(Path(args.out), count=args.count, width=width, height=height, seed=args.seed,
-                      stereo=args.stereo, photo=args.photo, right=not args.no_right,
+                      stereo=args.stereo, photo=args.photo, right=not args.no_right, light=args.light,
                       streets=None if args.streets == "plain" else args.streets)
     print(f"wrote {len(ids)} image sets to {args.out}")
     return 0
@@ -191,6 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--photo", choices=("realistic", "clean"), default="realistic",
                    help="the photo as Cityscapes' camera records it (default) or the clean shading")
     s.add_argument("--no-right", action="store_true", help="write no right view (rightImg8bit) of the stereo pair")
+    s.add_argument("--light", choices=("default", "sunny"), default="default",
+                   help="an overcast day's shading (default) or a sunny day's: a sun with cast shadows")
     s.add_argument("--streets", choices=("plain", "traffic"), default="plain",
                    help="plain: the street as earlier versions drew it (default); traffic: streets laid out as "
                         "traffic uses them (two-way, one-way, parking bays, zebra crossings), one kind per frame")

@@ -7,7 +7,8 @@ from straight above or below, so the renderer's top-down sky-occlusion map and i
 objects' undersides stay empty: the planes' sky visibility is exactly 1, their contact
 occlusion 0, and the objects' own sky occlusion is the height term alone. What the sun map
 gives (its shadows) is decided geometrically here, leaving out a band round every shadow edge
-(the map's texels and its 12-tap filter blur them).
+(the map's texels, the penumbra and the filter's widening by the pixel's own footprint on the
+ground blur them: a pixel counts as lit or shadowed when its centre and its corners all are).
 
 What each board checks (colours in linear light, ``objc`` = lit.glsl's ``out_object``):
 
@@ -42,7 +43,7 @@ import pytest
 
 from synthcompose.camera import Camera
 from synthcompose.models import MeshPart, Model
-from synthcompose.render import Lighting, RenderObject, Renderer
+from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .tolerances import HALF_STORAGE_ABS, HALF_STORAGE_REL, LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
 
@@ -240,7 +241,7 @@ def cast(cam: Camera, obj: RenderObject, light: Lighting) -> Scene:
     unit = np.array([[-1, -1, 0, 1], [1, -1, 0, 1], [1, 1, 0, 1], [-1, 1, 0, 1]], float)
     plane = Rect.of((unit @ obj.plane_matrix(light).T)[:, :3])
     origin = np.asarray(cam.position, float)
-    labels, ground_hits = [], []
+    labels, ground_hits, points = [], [], []
     for k, (dx, dy) in enumerate(_OFFSETS):
         d = _pixel_rays(cam, dx, dy)
         hits = [r.hit(origin, d) for r in rects + [plane]]
@@ -248,6 +249,7 @@ def cast(cam: Camera, obj: RenderObject, light: Lighting) -> Scene:
         near = np.argmin(t, axis=0)
         labels.append(np.where(np.isfinite(t.min(axis=0)), near, -1))
         ground_hits.append(np.isfinite(t[-1]))
+        points.append(origin + np.where(np.isfinite(t.min(axis=0)), t.min(axis=0), 0.0)[..., None] * d)
         if k == 0:
             t_near = t.min(axis=0)
             point = origin + np.where(np.isfinite(t_near), t_near, 0.0)[..., None] * d
@@ -255,13 +257,18 @@ def cast(cam: Camera, obj: RenderObject, light: Lighting) -> Scene:
             view = -d
     labels = np.stack(labels)
     surface = np.where((labels == labels[0]).all(axis=0), labels[0], -1)
-    # the sun: the ray from the point seen towards the sun, against every board but its own
+    # the sun: the ray from the points seen (the centre's and the corners': the sun map's filter
+    # is widened by the pixel's footprint) towards the sun, against every board but its own
     sun = np.asarray(light.sun_direction, float)
-    loose, strict = np.zeros(surface.shape, bool), np.zeros(surface.shape, bool)
-    for k, r in enumerate(rects):
-        own = labels[0] == k
-        loose |= np.isfinite(r.hit(point, sun, grow=SHADOW_EDGE_MARGIN_M)[0]) & ~own
-        strict |= np.isfinite(r.hit(point, sun, grow=-SHADOW_EDGE_MARGIN_M)[0]) & ~own
+    loose, strict = np.zeros(surface.shape, bool), np.ones(surface.shape, bool)
+    for q in points:
+        hit_loose, hit_strict = np.zeros(surface.shape, bool), np.zeros(surface.shape, bool)
+        for k, r in enumerate(rects):
+            own = labels[0] == k
+            hit_loose |= np.isfinite(r.hit(q, sun, grow=SHADOW_EDGE_MARGIN_M)[0]) & ~own
+            hit_strict |= np.isfinite(r.hit(q, sun, grow=-SHADOW_EDGE_MARGIN_M)[0]) & ~own
+        loose |= hit_loose
+        strict &= hit_strict
     return Scene(surface, np.stack(ground_hits).all(axis=0), point, along, view, ~loose, strict)
 
 

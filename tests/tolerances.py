@@ -247,6 +247,27 @@ RIGHT_CHANGE_OUTSIDE_MAX = 0.01
 #: is this many times smaller than warped 2 px off
 RIGHT_PHOTO_MATCH_MARGIN = 1.5
 
+# ------------------------------------------------------------------ the sun and the ground contact (issue 29)
+#: street frames labelled by eye: the share of the sunny ones the estimate must call sunny (12 of
+#: 13), and of the overcast ones it may (1 of 7)
+SUNNY_FOUND_MIN = 12 / 13
+OVERCAST_SUNNY_MAX = 1 / 7
+#: a plane's darkening at its border (where it meets the untouched photo), linear ratio: less
+#: than an 8-bit step of mid grey, so that no outline of the receiver shows
+PLANE_BORDER_RATIO = 0.004
+#: the under measure (ground 2-8 px under a car over 20-40 px under) of the real cars >= 150 px
+#: wide on the labelled development frames: 0.29-1.11 (median about 0.6), an inserted car's under
+#: an overcast sky on a flat road must lie in it
+UNDER_REAL_RANGE = (0.29, 1.11)
+#: the estimated azimuth against the generated sun's, degrees, the orientation (mod 180)
+SUN_AZIMUTH_AXIS_DEG = 15.0
+#: the penumbra at a shadow's far end over that near its caster (PCSS: it grows with the distance)
+PENUMBRA_GROWTH_MIN = 1.5
+#: the outline measure near a car on a flat photo of 3 levels' noise: the smooth falloff of its
+#: occlusion leaves iso-lines along its straight sides that reach 0.26-0.34 here (the receiver's
+#: box of the earlier planes gave 0.5-1.1); the issue's 0.2 is a figure over real frames
+OUTLINE_SMOOTH_MAX = 0.4
+
 # ------------------------------------------------------------------ glass (test_glass.py)
 #: what a pane lets through of the photo vs (1 - reflectance) x its material's transmission, and
 #: the coverage vs its complement: the Fresnel term's growth off normal incidence over the pane

@@ -6,16 +6,31 @@ import math
 import numpy as np
 
 from ..camera import Camera
-from .light import (EXPOSURE_RANGE, LIT_GROUND_KNOWN, LIT_GROUND_MARGIN, LIT_GROUND_MIN_GAIN, LIT_PAIRS_LOW,
-    LUM, LightEstimate, MAX_SHADOW_LOG_RATIO, MIN_TWO_LEVEL_GAIN, ROAD_ALBEDO, ROAD_ID,
-    SHADOW_AGREEMENT_WEIGHT, SIDEWALK_ALBEDO, SIDEWALK_ID, SKY_ID, _unit)
-from .grid import _grid, smoothing_for
-from .shadows import _Mixture, _Occluders, _ShadowCue, _mixture, _shadow_cue, _shadow_score
-from .pairs import _GAMMAS, _KS, _PairCue, _pair_cue, _pair_fit, _pair_none, _pair_sun, _rho
+from . import lines, plansun
 from .casters import CASTER_MAX_BRIGHT, CASTER_MIN_AGREEMENT, _caster_cue, _caster_sun
-from . import lines
+from .grid import _grid, smoothing_for
+from .light import (
+    EXPOSURE_RANGE,
+    LIT_GROUND_KNOWN,
+    LIT_GROUND_MARGIN,
+    LIT_GROUND_MIN_GAIN,
+    LIT_PAIRS_LOW,
+    LUM,
+    MAX_SHADOW_LOG_RATIO,
+    MIN_TWO_LEVEL_GAIN,
+    ROAD_ALBEDO,
+    ROAD_ID,
+    SHADOW_AGREEMENT_WEIGHT,
+    SIDEWALK_ALBEDO,
+    SIDEWALK_ID,
+    SKY_ID,
+    LightEstimate,
+    _unit,
+)
 from .lines import _along_line, _shadow_line
-
+from .pairs import _GAMMAS, _KS, _pair_cue, _pair_fit, _pair_none, _pair_sun, _PairCue, _rho
+from .plan import completed_labels
+from .shadows import _Mixture, _mixture, _Occluders, _shadow_cue, _shadow_score, _ShadowCue
 
 #: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
 #: direction
@@ -26,13 +41,21 @@ UNCONFIRMED_STRENGTH = 0.3
 
 
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
-                      work_width: int = 700) -> LightEstimate:
+                      work_width: int = 700, labelled: bool = True,
+                      completed: np.ndarray | None = None) -> LightEstimate:
     """Estimate the light of one photo.
 
-    rgb (H, W, 3) uint8 sRGB; label_ids (H, W) uint8 Cityscapes ids (or labels found from the
-    geometry); depth (H, W) float metres, inf where unknown; ``camera`` the frame's camera.
+    rgb (H, W, 3) uint8 sRGB; label_ids (H, W) uint8 Cityscapes ids (or, ``labelled`` False,
+    the surfaces found from the geometry: completed here with the level ground and what stands
+    on it, :func:`~.plan.completed_labels`); depth (H, W) float metres, inf where unknown;
+    ``camera`` the frame's camera; ``completed``: those completed labels where the caller has
+    them already. The completed labels serve the ground plan (:mod:`.plansun`) only: the other
+    cues keep the found surfaces (on the completed ones their two-level and shading cues called
+    3 of 7 overcast street frames sunny, on the found ones 1).
     Deterministic: the same inputs give the same estimate.
     """
+    if completed is None:
+        completed = label_ids if labelled else completed_labels(label_ids, depth, camera)
     smooth, sigma_d = smoothing_for(depth, label_ids, camera)
     g = _grid(rgb, label_ids, depth, camera, work_width, smooth)
     occ = _Occluders.build(g, label_ids, depth, camera)
@@ -144,8 +167,32 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     cues["lit_ground_sun"] = lit_ground is not None
     cues["caster_sun"] = cast is not None
     cues["shaded_ground_sun"] = shaded is not None
+    # the shadow edges on the ground plan: where they show a sun, they decide, and the sun lies
+    # along their directions (plansun)
+    ps, _, _ = plansun.measure(rgb, completed, depth, camera, labelled)
+    cues["plan"] = ps.to_dict()
+    plan_dir = None
+    if ps.sunny:  # its casters: what stands, labelled or found from the depth
+        cg = g if labelled else _grid(rgb, completed, depth, camera, work_width, smooth)
+        plan_dir = plansun.direction(ps, _caster_cue(cg, camera), evidence)
+    if plan_dir is not None:
+        # the plan's edges run along the sun's azimuth and along the street (roof lines, car
+        # sides): where the other cues already found a sun and its direction (two ground levels
+        # and the shading pairs, the lit or shaded ground, the casters), the plan's direction
+        # replaces theirs only if it explains the shading and the shadows as well
+        found = cues["sun_direction_sure"] or any(c is not None for c in (lit_ground, cast, shaded))
+        shading_sun = bool(sunny and found) and evidence(az, el)[0] >= evidence(*plan_dir[:2])[0]
+        sunny, lit_ground, cast, shaded = True, None, None, None
+        cues["plan_direction"] = not shading_sun
+        if not shading_sun:
+            az, el, info = plan_dir
+            cues.update(info)
+            cues["sun_direction_sure"] = info["caster_agreement"] > 0
+        strength = plansun.strength(ps)
     if not sunny:
         delta = 0.0
+    elif plan_dir is not None:
+        delta = plansun.log_ratio(ps)
     elif lit_ground is not None or shaded is not None:  # a shadow's step: the sky's share of the light
         delta = math.log((lit_ground or shaded)[3])
     elif cast is not None:  # the casters' shadows against the lit ground around them
@@ -154,8 +201,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         delta = _core_step(shadow, mix)
     cues["ground_shadow_core_log_ratio"] = delta
     if sunny and not cues["sun_direction_sure"] and lit_ground is None and cast is None and shaded is None:
-        # the shadows show a sun but nothing shows where: a high sun, whose shadow falls short
-        # and under the object, is the least wrong guess (a shadow thrown the wrong way is seen)
+        # the shadows show a sun but nothing shows where (the plan's edges give an axis, but no
+        # caster its side and height): a high sun, whose shadow falls short and under the
+        # object, is the least wrong guess (a shadow thrown the wrong way is seen)
         el = max(el, UNSURE_ELEVATION)
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sunny else 0.0
     confidence = strength if sunny else ((1.0 - strength) if mix is not None else 0.3)
@@ -187,8 +235,16 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
                        for k in np.unique(shadow.cls) if (lit & (shadow.cls == k)).sum() >= 20)
         exposure, reference = _exposure(shadow, lit, lit_scale)
         cues["exposure_reference"] = reference
+    if plan_dir is not None:  # the plan's own lit and shadowed ground
+        sky_rgb, sun_rgb, ground_rgb = plansun.colours(ps, delta)
+        levels = ps.levels
+        road = dict(levels).get(ROAD_ID)
+        if road is not None:
+            exposure = float(np.clip(road / ROAD_ALBEDO, *EXPOSURE_RANGE))
     sky = g.pure & (g.label == SKY_ID)
     evidence = tuple(name for name, cue in (("ground", shadow), ("shading", pairs)) if cue is not None)
+    if ps.edge_length > 0 and "ground" not in evidence:
+        evidence += ("ground",)
     if sky.sum() >= 50:
         evidence += ("sky",)
         cues["sky_pixels_linear_rgb"] = [float(v) for v in g.lin[sky].mean(axis=0)]

@@ -3,7 +3,8 @@ depth maps, the photo and its reflection), the program variant for a ground plan
 of parts with the same maps, and the draw of the planes and the objects over them.
 
 Texture units of lit.glsl's samplers: 0 base colour, 1 sun map, 2 sky map, 3 photo (ROI crop),
-4 environment (reflections), 5 sun mask, 6 normal map, 13 undersides (contact shadows).
+4 environment (reflections), 5 sun mask, 6 normal map, 13 undersides (contact shadows), 14 the
+ground's sky (the planes' occlusion).
 """
 from __future__ import annotations
 
@@ -19,14 +20,19 @@ from ..gl import GLContext
 from ..models import Model
 from ..plates import plate_image
 from .gpu_model import GpuMaps, GpuModel, GroundPlane, mipmapped
+from .shadows import light_range
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4
 from .values import Lighting, RenderObject
 
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 _UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (contact shadows)
-#: the sky's occlusion on the ground is averaged over discs of this radius and 2.5 times it
-#: (metres): under an overcast sky an object shades the ground around it over about its height
-SKY_RADIUS = 0.5
+_GROUND_SKY_UNIT = 14  # texture unit of the sky the ground planes see past the objects
+#: tangent of the sun's angular radius (0.267 degrees): a shadow's edge is this soft per metre
+#: from its caster (shaders/lit.glsl, sun_visibility)
+SUN_RADIUS = math.tan(math.radians(0.267))
+#: a ground plane's darkening (the objects' shadows and occlusion) fades out over this many
+#: metres to its edges, so that no outline of the plane shows (values.PLANE_MARGIN is wider)
+PLANE_FADE = 0.3
 #: contact shadow: ground under a part of an object lower than about this (metres) loses most
 #: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
 CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
@@ -59,10 +65,11 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
         "u_sun_dir": tuple(lighting.sun_direction), "u_sun_rgb": tuple(lighting.sun_rgb),
         "u_sky_rgb": tuple(lighting.sky_rgb), "u_ground_rgb": tuple(lighting.ground_rgb),
         "u_sun_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sun_mat), "u_sky_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sky_mat),
-        "u_sky_radius": SKY_RADIUS / (2 * half),  # in map units
-        "u_under_map": _UNDER_UNIT, "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
-        "u_under_range": 2 * half + 10.0 - 0.1,  # metres the under map's depth 0..1 spans
-        "u_self_bias": 0.05 / (2 * half + 10.0 - 0.1),
+        "u_map_metres": 2 * half, "u_sun_radius": SUN_RADIUS,
+        "u_under_map": _UNDER_UNIT, "u_ground_sky": _GROUND_SKY_UNIT,
+        "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
+        "u_under_range": light_range(half),  # metres the light maps' depth 0..1 spans
+        "u_self_bias": 0.05 / light_range(half),
         "u_contact_height": CONTACT_HEIGHT, "u_contact_radius": CONTACT_RADIUS / (2 * half),
         "u_texture": 0, "u_normal_map": 6, "u_sun_map": 1, "u_sky_map": 2, "u_photo": 3,
         "u_plane_from_photo": env is not None,
@@ -83,12 +90,14 @@ def bind_inputs(blank: moderngl.Texture, shadow_textures: Sequence[moderngl.Text
                 photo: moderngl.Texture | None, env: moderngl.Texture | None,
                 sun_mask: moderngl.Texture | None) -> None:
     """Bind one render's textures to lit.glsl's units (``blank`` where there is none: every
-    active sampler must see a texture of its own kind); ``shadow_textures``: sun, sky, under."""
+    active sampler must see a texture of its own kind); ``shadow_textures``: sun, sky, under,
+    the ground's sky."""
     (env if env is not None else blank).use(4)
     (sun_mask if sun_mask is not None else blank).use(5)
     shadow_textures[0].use(1)
     shadow_textures[1].use(2)
     shadow_textures[2].use(_UNDER_UNIT)
+    shadow_textures[3].use(_GROUND_SKY_UNIT)
     (photo if photo is not None else blank).use(3)
     blank.use(0)
     blank.use(6)
@@ -180,6 +189,9 @@ class LitDraw:
         vao = self.plane.vao(prog, reverse)
         for obj in (reversed(objects) if reverse else objects):
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
+            if shadows:
+                prog["u_plane_half"].value = obj.plane_half(lighting)
+                prog["u_plane_fade"].value = PLANE_FADE
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)

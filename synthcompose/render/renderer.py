@@ -124,7 +124,7 @@ class Renderer:
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
         light = light_matrices(objects, lighting)  # half, sun, sky, under
-        self.shadows.draw(objects, light[1:], self._gpu_model)
+        self.shadows.draw(objects, light, self._gpu_model, lighting, self._lit.plane)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
                                             env, sun_mask is not None)
         ctx.enable(moderngl.DEPTH_TEST)

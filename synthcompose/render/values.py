@@ -16,6 +16,11 @@ from ..lighting.light import Lighting
 from ..models import Model
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
+#: a ground plane reaches this far (metres) beyond the object's footprint: past where its
+#: occlusion of the sky has faded (render.lit.PLANE_FADE), so the plane's edges never show
+PLANE_MARGIN = 1.5
+#: and as far as the sun throws the object's shadow, up to this (metres)
+SHADOW_REACH = 8.0
 #: the id pass writes object index k (1..15) | part label << PART_SHIFT: a part labelled apart
 #: from its object (a sign's pole) carries its Cityscapes id there, 0 elsewhere
 PART_SHIFT = 8
@@ -43,33 +48,49 @@ class RenderObject:
     model: Model
     vehicle_from_object: np.ndarray  # (4, 4)
     plane_albedo: tuple[float, float, float]  # linear RGB of the real ground there
-    plane_margin: float = 0.4  # the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    #: the ground plane reaches this far beyond the footprint (plus the shadow), metres
+    plane_margin: float = PLANE_MARGIN
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
     recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
     plate: str | None = None  # the registration on its number plates (plates.py); None: blank plates
 
+    def shadow_reach(self, lighting: "Lighting") -> np.ndarray:
+        """(2,) object-frame vector from the footprint's centre: where and how far (at most
+        :data:`SHADOW_REACH`) the sun throws the top of the object's shadow."""
+        h = self.model.extents[2]
+        d = np.asarray(lighting.sun_direction, float)
+        flat = math.hypot(d[0], d[1])
+        if flat < 1e-6:
+            return np.zeros(2)
+        length = min(h * flat / max(d[2], 0.05), SHADOW_REACH)
+        away = -(self.vehicle_from_object[:3, :3].T @ np.array([d[0], d[1], 0.0]))[:2]
+        return away / max(np.linalg.norm(away), 1e-12) * length
+
     def plane_half(self, lighting: "Lighting") -> tuple[float, float]:
         """Half sizes (x, y) of the rectangular ground plane in the object frame: the footprint,
-        the margin, and as far as the sun can throw the object's shadow (at most 4 m)."""
-        l, w, h = self.model.extents
-        el_sin = max(lighting.sun_direction[2], 0.05)
-        reach = min(h * math.sqrt(max(1.0 - el_sin ** 2, 0.0)) / el_sin, 4.0)
-        return l / 2 + self.plane_margin + reach, w / 2 + self.plane_margin + reach
+        the margin, and the object's shadow (:meth:`shadow_reach`, on its side only)."""
+        l, w, _ = self.model.extents
+        rx, ry = np.abs(self.shadow_reach(lighting))
+        return l / 2 + self.plane_margin + rx / 2, w / 2 + self.plane_margin + ry / 2
 
     def plane_matrix(self, lighting: "Lighting") -> np.ndarray:
-        """(4, 4) vehicle <- unit square [-1, 1]^2 at z = 0: the pose of the ground plane."""
+        """(4, 4) vehicle <- unit square [-1, 1]^2 at z = 0: the pose of the ground plane, its
+        centre moved half the shadow's reach towards the shadow."""
         hx, hy = self.plane_half(lighting)
-        return self.vehicle_from_object @ np.diag([hx, hy, 1.0, 1.0])
+        cx, cy = self.shadow_reach(lighting) / 2
+        square = np.diag([hx, hy, 1.0, 1.0])
+        square[:2, 3] = (cx, cy)
+        return self.vehicle_from_object @ square
 
     def corners(self, lighting: "Lighting") -> np.ndarray:
         """(16, 3) vehicle-frame corners of the object's box and of its plane."""
         l, w, h = self.model.extents
         box = np.array([[sx * l / 2, sy * w / 2, z] for sx in (-1, 1) for sy in (-1, 1) for z in (0, h)])
-        hx, hy = self.plane_half(lighting)
-        plane = np.array([[sx * hx, sy * hy, 0.0] for sx in (-1, 1) for sy in (-1, 1)])
-        pts = np.concatenate([box, plane, plane + [0, 0, 0.01]])
         m = self.vehicle_from_object
-        return pts @ m[:3, :3].T + m[:3, 3]
+        box = box @ m[:3, :3].T + m[:3, 3]
+        unit = np.array([[sx, sy, 0.0, 1.0] for sx in (-1, 1) for sy in (-1, 1)])
+        plane = (unit @ self.plane_matrix(lighting).T)[:, :3]
+        return np.concatenate([box, plane, plane + [0, 0, 0.01]])
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,6 +13,7 @@ from ..fileio import read_input_bytes
 from ..geometry import Frame, disparity_to_depth
 from ..lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
 from ..lighting.camera import ToneReference
+from ..lighting.plan import completed_labels
 from ..manifest import Manifest
 from ..surfaces import Surfaces, frame_for
 from .timing import timed
@@ -43,6 +44,8 @@ class PhotoLight:
     estimate: LightEstimate | None  # lighting "estimate" mode
     match: CameraMatch | None  # lighting "camera_match"
     reference: ToneReference | None  # with camera_match: the tones of the frame's own objects
+    labels: np.ndarray | None = None  # (H, W) the labels the light was measured on: a frame without
+    # labels has its found surfaces completed with the level ground and what stands (lighting.plan)
 
 
 def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepared:
@@ -63,11 +66,14 @@ def measure_light(m: Manifest, prep: Prepared, timings: dict[str, float]) -> Pho
     """The photo's own light, and its camera's blur, noise and tones (what the manifest asks for)."""
     image_set, frame = prep.image_set, prep.frame
     with timed(timings, "lighting"):
-        estimate = match = reference = None
+        estimate = match = reference = labels = None
         if m.lighting_mode == "estimate":
-            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera)
+            labels = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, prep.depth,
+                                                                              image_set.camera)
+            estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera,
+                                         labelled=frame.labelled, completed=labels)
         if m.camera_match:
             match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
                                               frame.label_ids)
-    return PhotoLight(estimate, match, reference)
+    return PhotoLight(estimate, match, reference, labels)

@@ -102,20 +102,22 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
     if match is not None:
         record = record.with_(camera_match=match.to_dict())
     looks = []
+    # where the sun reaches the real ground: on the labels the light was measured on
+    ground_labels = light.labels if light.labels is not None else frame.label_ids
     with timed(timings, "render"):
         objects = []
         for obj in placed.objects:
             spec, pl = obj.spec, obj.placement
             albedo = ground_albedo(image_set.rgb, frame, pl, [label_id(s) for s in spec.allowed_surfaces])
             # an object standing in a real cast shadow gets no sun
-            sun = 1.0 if estimate is None else estimate.sun_visibility(int(frame.label_ids[pl.pixel]), albedo)
+            sun = 1.0 if estimate is None else estimate.sun_visibility(int(ground_labels[pl.pixel]), albedo)
             # this object's paint or clothes and its plates, drawn apart from the placement's draws
             look = draw_appearance(obj.model, spec.class_name, appearance_rng(m.seed, prep.ident.key, len(objects))) \
                 if spec.appearance == "varied" else Appearance()
             objects.append(RenderObject(obj.model, pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour,
                                         plate=look.plate))
             looks.append((albedo, sun, look))
-        sun_mask = None if estimate is None else estimate.sun_mask(image_set.rgb, frame.label_ids)
+        sun_mask = None if estimate is None else estimate.sun_mask(image_set.rgb, ground_labels)
         passes = renderer.render(cam, objects, lighting, photo=image_set.rgb,  # real shadows on the objects
                                  sun_mask=sun_mask)
     with timed(timings, "compose"):

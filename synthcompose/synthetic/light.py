@@ -29,6 +29,8 @@ class SceneLight:
     sun_tint     : colour of the sunlight (scaled to luminance 1)
     ground_ratio : ambient from below (ground bounce) over ambient from above
     shadows      : cast shadows of boxes and poles
+    sun_radius_deg : the sun's angular radius: its shadows' penumbra (a real sun's is 0.27
+                   degrees; 0 draws them sharp); sampled over :data:`SUN_DISC` directions
     """
 
     sun_azimuth_deg: float = 135.0
@@ -39,6 +41,7 @@ class SceneLight:
     sun_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
     ground_ratio: float = 0.3
     shadows: bool = True
+    sun_radius_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.sun_fraction < 1.0:
@@ -143,6 +146,23 @@ def _sun_visibility(scene: StreetScene, p: np.ndarray, sun: np.ndarray) -> np.nd
     return vis
 
 
+#: directions on the sun's disc (unit disc) its visibility is averaged over (a penumbra)
+SUN_DISC = ((0.0, 0.0), (0.75, 0.0), (-0.375, 0.65), (-0.375, -0.65), (0.375, 0.65), (0.375, -0.65),
+            (-0.75, 0.0))
+
+
+def _disc_directions(sun: np.ndarray, radius_deg: float) -> list[np.ndarray]:
+    """Unit directions to :data:`SUN_DISC`'s points on a sun of angular radius ``radius_deg``
+    centred on ``sun``."""
+    if radius_deg <= 0:
+        return [sun]
+    t = math.tan(math.radians(radius_deg))
+    e1 = np.cross(sun, [0.0, 0.0, 1.0])
+    e1 = e1 / max(np.linalg.norm(e1), 1e-12) if np.linalg.norm(e1) > 1e-9 else np.array([1.0, 0.0, 0.0])
+    e2 = np.cross(sun, e1)
+    return [(sun + t * (a * e1 + b * e2)) / np.linalg.norm(sun + t * (a * e1 + b * e2)) for a, b in SUN_DISC]
+
+
 def light_shade(scene: StreetScene, albedo: np.ndarray, normal: np.ndarray, pts: np.ndarray,
                  sun: np.ndarray, sunlit: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """(N, 3) sRGB 0-255 colour of surface points lit by ``scene.light`` (linear-light shading).
@@ -155,10 +175,20 @@ def light_shade(scene: StreetScene, albedo: np.ndarray, normal: np.ndarray, pts:
     if light.shadows:
         lit_idx = np.nonzero(ndl > 0)[0]
         vis = np.zeros(len(n), np.float32)
-        vis[lit_idx] = _sun_visibility(scene, pts[lit_idx] + 0.02 * n[lit_idx], sun.astype(np.float64))
+        q = pts[lit_idx] + 0.02 * n[lit_idx]
+        dirs = _disc_directions(sun.astype(np.float64), light.sun_radius_deg)
+        v = _sun_visibility(scene, q, dirs[0])
+        if len(dirs) > 1:  # the disc's other points where its rim disagrees (a penumbra)
+            rim = [_sun_visibility(scene, q, dirs[k]) for k in (1, 2, 3)]
+            edge = np.nonzero((rim[0] != v) | (rim[1] != v) | (rim[2] != v))[0]
+            total = v + rim[0] + rim[1] + rim[2]
+            for d in dirs[4:]:
+                total[edge] += _sun_visibility(scene, q[edge], d)
+            v = np.where(np.isin(np.arange(len(v)), edge), total / len(dirs), v)
+        vis[lit_idx] = v
         ndl = ndl * vis
     if sunlit is not None:
-        sunlit[0][sunlit[1]] = ndl > 0
+        sunlit[0][sunlit[1]] = ndl > 0.5 * np.maximum(n @ sun.astype(np.float32), 0.0)
     up = (0.5 + 0.5 * n[:, 2:3])
     irradiance = ground * (1 - up) + sky * up + sun_rgb * ndl[:, None]
     return (_srgb(_lin(albedo / 255.0) * irradiance) * 255.0).astype(np.float32)
@@ -169,3 +199,29 @@ def light_tint(scene: StreetScene, color: np.ndarray) -> np.ndarray:
     and scaled with its intensity."""
     tint = SceneLight._unit_luminance(scene.light.sky_tint) * scene.light.intensity
     return (_srgb(_lin(color / 255.0) * tint.astype(np.float32)) * 255.0).astype(np.float32)
+
+
+#: the generator's sunny days: sun elevation (degrees), the sun's share of an up-facing lit
+#: surface's light (lit / shadowed ground 2.2-4.5 times, as on the sunny street frames), and
+#: the colours: a bluish sky, a warm sun (the shadow's side bluer, as in the photos)
+SUNNY_ELEVATION, SUNNY_FRACTION = (18.0, 55.0), (0.55, 0.78)
+SUNNY_SKY_TINT, SUNNY_SUN_TINT = (0.86, 1.0, 1.22), (1.12, 1.0, 0.84)
+#: a real sun's angular radius (degrees)
+SUN_RADIUS_DEG = 0.267
+#: the sun's azimuth within this many degrees of the street's axis (either way along it): the
+#: generated streets are canyons (buildings 8-20 m high, 7-10 m from the centre line), where a
+#: sun across the street leaves all the road in the houses' shade, a frame a person would not
+#: call sunny; a sun along it lights a band of road that the houses' edges, the poles and the
+#: cars throw their shadows on (as on the sunny street frames)
+SUNNY_AZIMUTH_FROM_STREET = 35.0
+
+
+def sunny_light(rng: np.random.Generator) -> SceneLight:
+    """A sunny day's :class:`SceneLight`: the sun along the street (:data:`SUNNY_AZIMUTH_FROM_STREET`,
+    the street along x), the ranges above, the penumbra of a real sun."""
+    ahead = rng.random() < 0.5
+    azimuth = (0.0 if ahead else 180.0) + rng.uniform(-SUNNY_AZIMUTH_FROM_STREET, SUNNY_AZIMUTH_FROM_STREET)
+    return SceneLight(sun_azimuth_deg=float(azimuth % 360.0),
+                      sun_elevation_deg=float(rng.uniform(*SUNNY_ELEVATION)),
+                      sun_fraction=float(rng.uniform(*SUNNY_FRACTION)), sky_tint=SUNNY_SKY_TINT,
+                      sun_tint=SUNNY_SUN_TINT, ground_ratio=0.3, shadows=True, sun_radius_deg=SUN_RADIUS_DEG)

@@ -1,0 +1,224 @@
+"""The sun and the ground contact on any Cityscapes root (real frames first): one batch per seed
+with the bundled manifest's objects (cars weighed up), estimated light and camera match, then
+
+* per frame: sunny or not (the estimate) against a labels file (``sunny`` / ``overcast`` by
+  eye; frames not listed are ambiguous), the metres of shadow edge the ground plan shows (the
+  estimate's own margin: 2 m decide), and on frames called sunny the angle between the inserted
+  shadows and the real ones: the real shadows' orientation is the strongest direction of the
+  shadow edges on the input's ground plan (lighting.plansun), an inserted object's shadow
+  direction runs from its footprint to the centre of the ground it darkens on the plan
+  (shadowlook.shadow_orientation); the angle is taken mod 180 (0-90 degrees);
+* per inserted car at least 150 px wide: ``under`` (shadowlook.under on the car as annotated,
+  the ground 2-8 px under its lowest pixel over 20-40 px under), ``outline`` (straight lines of
+  the ratio output / input near it, over its width) and roughness (look.shadow_blotchiness);
+  the same ``under`` for the frame's real cars where labels (or --truth) give them;
+* totals last.
+
+    python benchmarks/eval_sun.py ROOT [ROOT ...] [--labels sun-labels.txt] [--seeds 1 2] [--truth LABELLED]
+    python benchmarks/eval_sun.py --generated 4 --seeds 1 2       # generated scenes, sunny and overcast
+
+Never commit outputs made from real frames (Cityscapes' licence forbids redistribution).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+from eval_look import GROUND, write_manifest  # noqa: E402
+
+from evaluation import shadowlook  # noqa: E402
+from synthcompose import look  # noqa: E402
+from synthcompose.batch import run_batch  # noqa: E402
+from synthcompose.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
+from synthcompose.fileio import decode_rle  # noqa: E402
+from synthcompose.geometry import disparity_to_depth  # noqa: E402
+from synthcompose.labels import label_id  # noqa: E402
+from synthcompose.lighting import plansun  # noqa: E402
+from synthcompose.lighting.plan import completed_labels  # noqa: E402
+from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.surfaces import frame_for  # noqa: E402
+
+CAR = label_id("car")
+MIN_WIDTH = 150  # pixels: the cars the under and outline figures are taken on
+ANGLE_OK = 15.0  # degrees
+
+
+def _frame_key(name: str) -> str:
+    return "_".join(name.split("_")[:2])
+
+
+def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None) -> tuple[list, list, list]:
+    """(frames, inserted cars, real cars) of one batch's outputs under ``out``."""
+    frames, cars, real = [], [], []
+    for ident in find_image_sets(out):
+        rec_path = ident.path(out, "record")
+        if not rec_path.is_file():
+            continue
+        rec = json.loads(rec_path.read_text())
+        if rec.get("status") != "done":
+            continue
+        src, res = read_image_set(root, ident), read_image_set(out, ident)
+        depth = disparity_to_depth(src.disparity, src.camera)
+        frame, _ = frame_for(src, depth)
+        lab = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, depth, src.camera)
+        ground = np.isin(lab, GROUND)
+        light = rec.get("lighting", {})
+        sunny = bool(light.get("sunny"))
+        plan_cue = light.get("cues", {}).get("plan", {})
+        ps, plan, _ = plansun.measure(src.rgb, lab, depth, src.camera, frame.labelled)
+        real_dir = ps.azimuths[0][0] if ps.azimuths else None
+        masks = [shadowlook.annotated(decode_rle(o["mask_rle"])) for o in rec["objects"]]
+        objects = np.zeros(ground.shape, bool)
+        for m in masks:
+            objects |= m
+        twin = labelled_twin(truth, ident) if truth is not None and not src.labelled else None
+        ref = read_image_set(truth, twin) if twin is not None else (src if src.labelled else None)
+        if ref is not None:
+            objects |= ref.instance_ids >= 1000
+        outlines = shadowlook.outline(src.rgb, res.rgb, masks)
+        angles = []
+        for obj, m, line in zip(rec["objects"], masks, outlines):
+            angle = None
+            if sunny and real_dir is not None:
+                d = shadowlook.shadow_orientation(src.rgb, res.rgb, m, obj["pose"]["vehicle"]["position_m"],
+                                                  (plan.u, plan.v), plan.xy)
+                angle = None if d is None else shadowlook.axis_angle(d, real_dir)
+                if angle is not None:
+                    angles.append(angle)
+            ys, xs = np.nonzero(m)
+            width = int(xs.max() - xs.min() + 1) if len(xs) else 0
+            if obj["label_id"] != CAR or width < MIN_WIDTH:
+                continue
+            vis = decode_rle(obj["mask_rle"])
+            cars.append({"frame": ident.name, "distance": obj["distance_m"], "width": width,
+                         "under": shadowlook.under(res.rgb, m, ground & ~(objects & ~m), objects),
+                         "outline": line, "rough": look.shadow_blotchiness(src.rgb, res.rgb, vis, objects),
+                         "angle": angle, "sunny": sunny})
+        if ref is not None:
+            for inst in np.unique(ref.instance_ids[ref.instance_ids // 1000 == CAR]):
+                m = ref.instance_ids == inst
+                xs = np.nonzero(m.any(axis=0))[0]
+                if xs.max() - xs.min() + 1 >= MIN_WIDTH:
+                    real.append({"frame": ident.name, "under": shadowlook.under(src.rgb, m, ground, objects)})
+        frames.append({"frame": ident.name, "label": labels.get(_frame_key(ident.name), "?"), "sunny": sunny,
+                       "edge_m": plan_cue.get("edge_length_m"), "azimuth": light.get("sun_azimuth_deg"),
+                       "elevation": light.get("sun_elevation_deg"), "real_dir": real_dir,
+                       "angles": angles})
+    return frames, cars, real
+
+
+def report(title: str, frames: list, cars: list, real: list) -> dict:
+    print(f"\n== {title}")
+    print(f"{'frame':<28} {'label':<9} {'called':<7} {'edges m':>7} {'sun az/el':>11} {'real dir':>8}  angles")
+    seen = {}
+    for f in frames:  # one line per frame (the first seed's light: the estimate is the photo's)
+        seen.setdefault(f["frame"], f)
+    for f in sorted(seen.values(), key=lambda f: f["frame"]):
+        ang = [a for g in frames if g["frame"] == f["frame"] for a in g["angles"]]
+        mark = "" if f["label"] == "?" else ("ok" if (f["label"] == "sunny") == f["sunny"] else "MISS")
+        print(f"{f['frame']:<28} {f['label']:<9} {('sunny' if f['sunny'] else 'no'):<7} {f['edge_m'] or 0:7.2f} "
+              f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
+              f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
+              f"{' '.join(f'{a:.0f}' for a in ang)} {mark}")
+    print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}")
+    for c in cars:
+        fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
+        print(f"{c['frame']:<28} {c['distance']:5.1f} {c['width']:5d} {fmt(c['under']):>6} {fmt(c['outline']):>7} "
+              f"{fmt(c['rough']):>6} {fmt(c['angle'], 0):>6}")
+    sunny_l = [f for f in seen.values() if f["label"] == "sunny"]
+    over_l = [f for f in seen.values() if f["label"] == "overcast"]
+    angles = [a for f in frames if f["sunny"] for a in f["angles"]]
+    unders = [c["under"] for c in cars if c["under"] is not None]
+    real_u = [r["under"] for r in real if r["under"] is not None]
+    outl = [c["outline"] for c in cars if c["outline"] is not None]
+    rough = [c["rough"] for c in cars if c["rough"] is not None]
+    out = {
+        "sunny_called_sunny": f"{sum(f['sunny'] for f in sunny_l)}/{len(sunny_l)}",
+        "overcast_called_sunny": f"{sum(f['sunny'] for f in over_l)}/{len(over_l)}",
+        "angles_within_15": f"{sum(a <= ANGLE_OK for a in angles)}/{len(angles)}",
+        "angle_median": float(np.median(angles)) if angles else None,
+        "under_inserted": _summary(unders), "under_real": _summary(real_u),
+        "outline_over_0.2": f"{sum(v > 0.2 for v in outl)}/{len(outl)}",
+        "rough_le_0.3": f"{sum(v <= 0.3 for v in rough)}/{len(rough)}",
+    }
+    print("\ntotals:")
+    for k, v in out.items():
+        print(f"  {k}: {v}")
+    return out
+
+
+def _summary(v: list) -> dict | None:
+    if not v:
+        return None
+    return {"n": len(v), "min": round(float(np.min(v)), 3), "median": round(float(np.median(v)), 3),
+            "max": round(float(np.max(v)), 3)}
+
+
+def run(root: Path, base: Path, seeds, objects: int, labels: dict, truth: Path | None, measure_only: bool):
+    frames, cars, real = [], [], []
+    for seed in seeds:
+        out = base / f"out_{seed}"
+        if not measure_only:
+            base.mkdir(parents=True, exist_ok=True)
+            manifest = load_manifest(write_manifest(root, out, objects, seed, 6.0, base))
+            run_batch(manifest, workers=1, progress=False, resume=False)
+        f, c, r = measure(root, out, labels, truth)
+        frames += f
+        cars += c
+        real += r if seed == seeds[0] else []
+    return frames, cars, real
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("roots", nargs="*", type=Path, help="Cityscapes roots (real frames)")
+    ap.add_argument("--labels", type=Path, help="sunny / overcast labels by eye (lines: 'sunny name ...')")
+    ap.add_argument("--truth", type=Path, help="labelled root with the same frames (real cars of an unlabelled ROOT)")
+    ap.add_argument("--generated", type=int, default=0, help="also N generated scenes, 2048x1024, same run")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--objects", type=int, default=4, help="objects asked per image set")
+    ap.add_argument("--out", type=Path, help="keep the outputs here (default: temporary)")
+    ap.add_argument("--json", type=Path, help="write the totals here")
+    ap.add_argument("--measure-only", action="store_true", help="measure the outputs already under --out")
+    a = ap.parse_args(argv)
+    if not a.roots and not a.generated:
+        ap.error("give a ROOT, --generated N, or both")
+    labels = shadowlook.read_sun_labels(a.labels) if a.labels else {}
+    results = {}
+    with tempfile.TemporaryDirectory(prefix="synthcompose-sun-") as tmp:
+        base = a.out or Path(tmp)
+        frames, cars, real = [], [], []
+        for i, root in enumerate(a.roots):
+            f, c, r = run(root.resolve(), base / f"real{i}", a.seeds, a.objects, labels, a.truth, a.measure_only)
+            frames, cars, real = frames + f, cars + c, real + r
+        if a.roots:
+            results["real"] = report(f"real: {' '.join(map(str, a.roots))} (seeds {a.seeds})", frames, cars, real)
+        if a.generated:
+            from synthcompose.synthetic import make_sample
+
+            gen = base / "generated"
+            if not a.measure_only:
+                make_sample(gen / "cityscapes", count=a.generated, width=2048, height=1024, seed=11)
+            gen_labels = {}
+            for scene in sorted((gen / "cityscapes").glob("**/*_scene.json")):
+                meta = json.loads(scene.read_text())
+                if "sunny" in meta:
+                    gen_labels[_frame_key(scene.name)] = "sunny" if meta["sunny"] else "overcast"
+            f, c, r = run(gen / "cityscapes", gen, a.seeds, a.objects, gen_labels, None, a.measure_only)
+            results["generated"] = report(f"generated ({a.generated} scenes, seeds {a.seeds})", f, c, r)
+    if a.json:
+        a.json.write_text(json.dumps(results, indent=2, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,170 @@
+"""How an inserted object's shadow and contact read next to the photo's own: the measures the
+sun and the ground contact are judged by (the look's other measures: :mod:`synthcompose.look`).
+
+* :func:`under` - the ground right under an object's bottom edge against the ground a little
+  further down: a real car darkens the road at its foot (ratio below 1);
+* :func:`outline` - straight lines in the ratio output / input near an inserted object, the
+  edges of a shadow receiver ("a faint box on the road"), in units of the object's width;
+* :func:`real_shadow_orientation` and :func:`shadow_orientation` - the orientation on the
+  ground plan of the photo's own shadow edges, and the direction the inserted shadow is thrown
+  in, for the angle between them (:func:`axis_angle`);
+* :func:`read_sun_labels` - the sunny / overcast labels, by eye, of a set of frames.
+
+All work on full-frame arrays as written (sRGB uint8, masks as bool).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from synthcompose.colour import LUM, SRGB8_TO_LINEAR
+
+#: rows under the object's lowest pixel: the band at its foot, the reference band further down
+UNDER_NEAR, UNDER_FAR = (2, 8), (20, 40)
+#: the share of the object's width (its middle) whose columns are measured
+UNDER_MIDDLE = 0.6
+#: the outline measure's settings: ratio blur (pixels), scale to 8 bits, Canny thresholds, the
+#: objects grown by (pixels), probabilistic Hough (threshold, shortest line, largest gap)
+OUTLINE_BLUR, OUTLINE_SCALE, OUTLINE_CANNY = 1.0, 200.0, (4, 8)
+OUTLINE_GROW, OUTLINE_HOUGH = 5, (30, 60, 3)
+
+
+def _luminance(rgb: np.ndarray) -> np.ndarray:
+    return cv2.LUT(rgb, SRGB8_TO_LINEAR) @ LUM.astype(np.float32)
+
+
+def annotated(mask: np.ndarray) -> np.ndarray:
+    """The object's mask as Cityscapes' annotators draw a vehicle: its polygon runs under the
+    body from tyre to tyre, so the dark gap under a car is the car's. The mask's convex hull."""
+    ys, xs = np.nonzero(mask)
+    out = np.zeros(mask.shape, np.uint8)
+    if len(xs) >= 3:
+        hull = cv2.convexHull(np.column_stack([xs, ys]).astype(np.int32))
+        cv2.fillConvexPoly(out, hull, 1)
+    return out.astype(bool) | mask
+
+
+def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndarray | None = None) -> float | None:
+    """Median luminance (linear) of the ground :data:`UNDER_NEAR` rows below the object's lowest
+    pixel, per column of the middle :data:`UNDER_MIDDLE` of its width, over that :data:`UNDER_FAR`
+    rows below; None without enough ground in both bands. ``mask``: the object's pixels as
+    annotated (a real car's instance mask; an inserted one's :func:`annotated`); ``ground``: the
+    pixels that are ground (labels or found surfaces); ``others``: pixels of any object, kept
+    out of the bands."""
+    ys, xs = np.nonzero(mask)
+    if len(xs) < 20:
+        return None
+    H, W = mask.shape
+    x0, x1 = int(xs.min()), int(xs.max())
+    pad = (1.0 - UNDER_MIDDLE) / 2 * (x1 - x0 + 1)
+    cols = np.arange(int(math.ceil(x0 + pad)), int(math.floor(x1 - pad)) + 1)
+    if len(cols) < 3:
+        return None
+    bottom = np.full(W, -1)
+    np.maximum.at(bottom, xs, ys)
+    y = _luminance(rgb)
+    blocked = others if others is not None else mask
+    near, far = [], []
+    for c in cols:
+        b = bottom[c]
+        if b < 0:
+            continue
+        for (lo, hi), acc in ((UNDER_NEAR, near), (UNDER_FAR, far)):
+            rows = np.arange(b + lo, min(b + hi + 1, H))
+            rows = rows[ground[rows, c] & ~blocked[rows, c]]
+            acc.extend(y[rows, c].tolist())
+    n_need = 3 * len(cols)
+    if len(near) < n_need or len(far) < n_need:
+        return None
+    return float(np.median(near) / max(np.median(far), 1e-6))
+
+
+def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray]) -> list[float | None]:
+    """Per object (``masks``: each inserted object's pixels, as annotated: :func:`annotated`),
+    the summed length of the straight lines in the ratio output / input near it (their midpoint
+    within half its width of its box) over its width; None for an empty mask. The ratio is
+    blurred (:data:`OUTLINE_BLUR`),
+    scaled by :data:`OUTLINE_SCALE` to 8 bits, Canny (:data:`OUTLINE_CANNY`) outside the objects
+    grown by :data:`OUTLINE_GROW`, probabilistic Hough (:data:`OUTLINE_HOUGH`)."""
+    ratio = _luminance(out) / np.maximum(_luminance(src), 1e-4)
+    ratio = cv2.GaussianBlur(ratio.astype(np.float32), (0, 0), OUTLINE_BLUR)
+    img = np.clip(ratio * OUTLINE_SCALE, 0, 255).astype(np.uint8)
+    edges = cv2.Canny(img, *OUTLINE_CANNY)
+    objects = np.zeros(src.shape[:2], np.uint8)
+    for m in masks:
+        objects |= m.astype(np.uint8)
+    k = 2 * OUTLINE_GROW + 1
+    grown = cv2.dilate(objects, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
+    edges[grown] = 0
+    t, length, gap = OUTLINE_HOUGH
+    found = cv2.HoughLinesP(edges, 1, math.pi / 180, threshold=t, minLineLength=length, maxLineGap=gap)
+    lines = [] if found is None else [np.ravel(s).astype(np.float64) for s in found]
+    result = []
+    for m in masks:
+        ys, xs = np.nonzero(m)
+        if not len(xs):
+            result.append(None)
+            continue
+        x0, x1, y0, y1 = xs.min(), xs.max(), ys.min(), ys.max()
+        width = float(x1 - x0 + 1)
+        reach = width / 2
+        total = 0.0
+        for xa, ya, xb, yb in lines:
+            mx, my = (xa + xb) / 2, (ya + yb) / 2
+            if x0 - reach <= mx <= x1 + reach and y0 - reach <= my <= y1 + reach:
+                total += math.hypot(xb - xa, yb - ya)
+        result.append(total / width)
+    return result
+
+
+def shadow_orientation(src: np.ndarray, out: np.ndarray, mask: np.ndarray, footprint: np.ndarray,
+                       plan_uv: tuple[np.ndarray, np.ndarray], plan_xy, darker: float = 0.9) -> float | None:
+    """Azimuth (degrees, from x towards y, mod 360) in which the inserted object's shadow is
+    thrown on the ground plan: from its footprint's centre to the centre of the ground it darkens
+    (output / input luminance below ``darker``, outside its own pixels), or None. ``plan_uv``:
+    the plan's pixel coordinates (u, v) per cell (:class:`~synthcompose.lighting.plan.GroundPlan`);
+    ``plan_xy(rows, cols)``: their vehicle-frame positions; ``footprint``: (x, y) of the object's
+    ground point."""
+    u, v = plan_uv
+    H, W = mask.shape
+    inside = (u >= 0) & (v >= 0) & (u <= W - 1) & (v <= H - 1)
+    ui = np.clip(np.rint(u), 0, W - 1).astype(np.int64)
+    vi = np.clip(np.rint(v), 0, H - 1).astype(np.int64)
+    ratio = _luminance(out) / np.maximum(_luminance(src), 1e-4)
+    grown = cv2.dilate(mask.astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
+    dark = inside & (ratio[vi, ui] < darker) & ~grown[vi, ui]
+    rows, cols = np.nonzero(dark)
+    if len(rows) < 20:
+        return None
+    weight = (1.0 - ratio[vi[rows, cols], ui[rows, cols]])
+    xy = plan_xy(rows, cols)
+    centre = (xy * weight[:, None]).sum(axis=0) / weight.sum()
+    d = centre - np.asarray(footprint[:2], float)
+    if np.hypot(*d) < 0.2:
+        return None
+    return float(math.degrees(math.atan2(d[1], d[0])) % 360.0)
+
+
+def axis_angle(a_deg: float, b_deg: float) -> float:
+    """Angle (degrees, 0-90) between two orientations taken mod 180."""
+    d = abs(a_deg - b_deg) % 180.0
+    return float(min(d, 180.0 - d))
+
+
+def read_sun_labels(path: str | Path) -> dict[str, str]:
+    """frame prefix (``city_seq``) -> "sunny" / "overcast", from lines ``sunny name name ...``
+    (``#`` comments); frames not listed are ambiguous."""
+    out: dict[str, str] = {}
+    for line in Path(path).read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        kind, *names = line.split()
+        if kind not in ("sunny", "overcast"):
+            raise ValueError(f"{path}: a line starts with {kind!r}, expected 'sunny' or 'overcast'")
+        for n in names:
+            out[n] = kind
+    return out
