@@ -5,12 +5,17 @@ disparity and the photo.
    disparity: the ground profile d_g(v). It starts from the camera's own ground plane (z = 0 in
    V) and is refined row by row by the strongest disparity near it (the road is the widest
    surface of a street's lower image), then smoothed by a robust low-order fit, so slopes and
-   the pitch of the car are followed.
+   the pitch of the car are followed; then the road's bends off that quadratic (a dip before a
+   junction, a crest) are followed from the car's own lane ahead, smoothed over metres.
 2. **Heights.** A pixel of disparity d on row v lies h = H (1 - d_g(v) / d) above the ground
    (H: the camera's height): a kerb's 10-15 cm is a 10 % step in disparity at any depth, well
    above the matcher's noise. The height map is median-filtered over a few pixels.
 3. **Road**: level pixels (|h| within the noise band at their depth) whose colour is the road's
    (a robust colour model of the level ground in front of the car) and that connect to it.
+   A cast shadow changes the light, not the ground: the car's own lane ahead, level and
+   continuous in height with the ground in front of the car, is road in whatever light, so
+   where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
+   light's road colour is modelled from it too.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
    road. Everything else is 0 (unlabelled).
 
