@@ -28,6 +28,7 @@ sys.path.insert(0, str(REPO))
 from synthcompose.batch import STAGES, run_batch  # noqa: E402
 from synthcompose.check import LIMITS, check_output  # noqa: E402
 from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 
 
@@ -48,7 +49,9 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path)
 
 def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None:
     """Pixels whose label or instance id differs between input and output outside the inserted
-    objects' visible masks, over the done sets of a labelled root (None for unlabelled roots)."""
+    objects' visible masks, over the done sets of a labelled root (None for unlabelled roots).
+    A part labelled apart (a sign's pole, labelled ``pole``) is the object's too: the pixels
+    turned ``pole`` in the columns of its box, from its top down."""
     total, seen = 0, False
     for ident in find_image_sets(root):
         if ident.key not in keys:
@@ -59,8 +62,15 @@ def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None
         seen = True
         record = json.loads(ident.path(out, "record").read_text())
         union = np.zeros(src.label_ids.shape, bool)
+        pole = label_id("pole")
         for obj in record.get("objects", []):
             union |= (res.instance_ids == obj["instance_id"]) & (src.instance_ids != obj["instance_id"])
+            box = obj.get("bbox_2d_amodal")
+            if box is not None:
+                x0, y0, x1, y1 = box
+                part = np.zeros_like(union)
+                part[y0:, x0:x1] = True  # the plate's box and below it: its pole
+                union |= part & (res.label_ids == pole) & (src.label_ids != pole)
         diff = (res.label_ids != src.label_ids) | (res.instance_ids != src.instance_ids)
         total += int((diff & ~union).sum())
     return total if seen else None

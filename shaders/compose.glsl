@@ -37,6 +37,10 @@ uniform int u_blur_radius;         // its half width in pixels; 0: no blur
 uniform vec2 u_tone[16];           // camera look of object k: (gain, saturation) on its linear colour
 uniform sampler2D u_layer_obj;     // layers() of every pixel (the LAYERS pass), when blurring
 uniform sampler2D u_layer_bg;
+// a large region is composed in bands of rows (compose.Composer): the region's pixel at this
+// framebuffer's (0, 0), and at the layer textures' (0, 0); (0, 0) when it is done whole
+uniform ivec2 u_origin;
+uniform ivec2 u_layer_origin;
 
 uniform usampler2D u_ground;       // 1 where the real scene is ground the objects stand on
 uniform float u_ground_band;       // K sigma_d / (f B): the real ground's depth error is this * z^2
@@ -136,10 +140,22 @@ void layers(ivec2 q, out vec4 obj, out vec3 bg) {
 // The layers of every pixel come from the LAYERS pass (u_layer_obj, u_layer_bg): worked out
 // once per pixel instead of once per pixel and tap.
 vec3 blurred(ivec2 p, out float cover) {
-    vec4 obj0 = texelFetch(u_layer_obj, p, 0);
-    vec3 bg0 = texelFetch(u_layer_bg, p, 0).rgb;
+    vec4 obj0 = texelFetch(u_layer_obj, p - u_layer_origin, 0);
+    vec3 bg0 = texelFetch(u_layer_bg, p - u_layer_origin, 0).rgb;
     bool covered = obj0.a >= 0.999;
     ivec2 hi = textureSize(u_photo, 0) - 1;
+    if (!covered) {
+        // no object within reach: the blur below adds nothing and B = bg0, exactly (most of
+        // the region of interest is the planes around the objects)
+        bool near = false;
+        for (int dy = -u_blur_radius; dy <= u_blur_radius; ++dy)
+            for (int dx = -u_blur_radius; dx <= u_blur_radius; ++dx)
+                near = near || texelFetch(u_alpha, clamp(p + ivec2(dx, dy), ivec2(0), hi), 0).r != 0.0;
+        if (!near) {
+            cover = 0.0;
+            return bg0;
+        }
+    }
     vec4 acc = vec4(0.0);
     vec3 bg_acc = vec3(0.0);
     float wsum = 0.0, bg_w = 0.0;
@@ -150,8 +166,8 @@ vec3 blurred(ivec2 p, out float cover) {
             float w = exp(k * float(dx * dx + dy * dy));
             wsum += w;
             if (!covered && texelFetch(u_alpha, q, 0).r == 0.0) continue;  // nothing to add
-            vec4 obj = texelFetch(u_layer_obj, q, 0);
-            vec3 bg = texelFetch(u_layer_bg, q, 0).rgb;
+            vec4 obj = texelFetch(u_layer_obj, q - u_layer_origin, 0);
+            vec3 bg = texelFetch(u_layer_bg, q - u_layer_origin, 0).rgb;
             acc += w * obj;
             if (covered && obj.a < 0.999) {
                 bg_acc += w * (1.0 - obj.a) * bg;
@@ -172,19 +188,28 @@ layout(location = 1) out vec4 out_bg;
 void main() {
     vec4 obj;
     vec3 bg;
-    layers(ivec2(gl_FragCoord.xy), obj, bg);
+    layers(ivec2(gl_FragCoord.xy) + u_origin, obj, bg);
     out_obj = obj;
     out_bg = vec4(bg, 1.0);
 }
 #else
 layout(location = 0) out vec4 out_rgb;
+#if !defined RGB_ONLY
 layout(location = 1) out uint out_label;
 layout(location = 2) out uint out_instance;
 layout(location = 3) out uint out_disparity;
 layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
+#endif
 
+// Variants (compose.Composer): BLUR when the object layer is blurred (u_blur_radius > 0: the
+// composite comes from the LAYERS pass's layers, not from this pixel's fetch); RGB_ONLY for a
+// view whose labels are not written (the right view of a stereo pair): the colour alone.
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 p = ivec2(gl_FragCoord.xy) + u_origin;
+#if defined BLUR
+    float cover;
+    vec3 rgb = blurred(p, cover);
+#else
     Pixel x = fetch(p);
     // Irpv and Ir are resolved over 4 samples with a zero background, so at an object's
     // edge Irpv = a * object + (1 - a) * plane and the formula blends exactly.
@@ -197,7 +222,7 @@ void main() {
     }
     vec3 rgb = a * x.irpv + (1.0 - a) * (x.R + diff);
     float cover = a;
-    if (u_blur_radius > 0) rgb = blurred(p, cover);
+#endif
     vec3 srgb = linear_to_srgb(rgb);
     if (cover > 0.0 && any(greaterThan(u_noise_sigma, vec3(0.0)))) {
         // the photo's noise where the object replaces it: what the background keeps of its own
@@ -206,17 +231,18 @@ void main() {
         srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p, 0).rgb * share, 0.0, 1.0);
     }
     out_rgb = vec4(srgb, 1.0);
-
+#if !defined RGB_ONLY
+    uint label = texelFetch(u_labels, p, 0).r;
     uint raw = texelFetch(u_id, p, 0).r;
     uint id = raw & 255u;
     uint part = raw >> 8u;  // a part labelled apart from its object (a sign's pole): its class, no instance
-    out_label = x.label;
+    out_label = label;
     out_instance = texelFetch(u_instances, p, 0).r;
     out_disparity = texelFetch(u_disparity, p, 0).r;
     out_visible = 0u;
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
-        if (in_front(od, x.sd, x.front, x.ground)) {
+        if (in_front(od, texelFetch(u_scene_depth, p, 0).r, label_in_front(label), texelFetch(u_ground, p, 0).r != 0u)) {
             out_label = part > 0u ? part : u_class[id];
             out_instance = part > 0u ? part : u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
@@ -226,10 +252,11 @@ void main() {
             // disparity is the photo's there (the labels stay the object's: Cityscapes labels a
             // car's windows as the car); behind a pane with the interior behind it (a = 1), the
             // object's
-            if (x.a < 1.0 - SEE_THROUGH && inside(p, id))
+            if (texelFetch(u_alpha, p, 0).r < 1.0 - SEE_THROUGH && inside(p, id))
                 out_disparity = texelFetch(u_disparity, p, 0).r;
         }
     }
+#endif
 }
 #endif  // LAYERS
 #endif

@@ -23,6 +23,7 @@ from .gl import GLContext
 from .labels import label_ids
 from .lighting.camera import CameraMatch
 from .render import RenderPasses
+from .render.bands import row_bands
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi
@@ -35,6 +36,26 @@ MAX_OBJECTS = 15
 #: share of the depth: the ground cannot hide what stands on it (a crest that would is rare
 #: within the few metres an object and its shadow cover)
 GROUND_TOL_REL = 0.05
+
+
+#: the compose's integer outputs after the colour: name, dtype (the texture's: 8 or 16 bits)
+OUTPUTS = (("label_ids", np.uint8), ("instance_ids", np.uint16), ("disparity", np.uint16), ("visible", np.uint8))
+
+
+def _uint_texture(gl: GLContext, size: tuple[int, int], values: np.ndarray) -> moderngl.Texture:
+    """An unsigned integer texture of ``values`` (>= 0) in 8, 16 or 32 bits, the fewest that hold
+    them (a usampler2D reads the same numbers from each)."""
+    top = int(values.max()) if values.size else 0
+    dtype = next((d for d, limit in (("u1", 0xFF), ("u2", 0xFFFF)) if top <= limit), "u4")
+    return gl.texture(size, 1, np.ascontiguousarray(values, {"u1": np.uint8, "u2": np.uint16}.get(dtype, np.uint32)),
+                      dtype=dtype)
+
+
+def label_mask(labels: np.ndarray, ids) -> np.ndarray:
+    """(H, W) bool: ``labels`` (uint8) is one of ``ids`` (``np.isin``, by a 256-entry table)."""
+    table = np.zeros(256, bool)
+    table[list(ids)] = True
+    return table[labels]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,24 +89,37 @@ class Composer:
 
     def __init__(self, gl: GLContext) -> None:
         self.gl = gl.activate()
-        self.prog = gl.program("compose")
-        self.vao = gl.own(gl.ctx.vertex_array(self.prog, []))
         # the blur's first pass (compose.glsl, LAYERS): each pixel's object and background layers
         self.layers_prog = gl.program("compose", LAYERS=1)
         self.layers_vao = gl.own(gl.ctx.vertex_array(self.layers_prog, []))
-        mask = np.zeros(8, np.uint32)
-        for label in FRONT_LABELS:
-            mask[label >> 5] |= np.uint32(1 << (label & 31))
-        for prog in (self.prog, self.layers_prog):
-            prog["u_front_labels"].write(mask.tobytes())
-            prog["u_tol_abs"].value = TOL_ABS
-            prog["u_tol_rel"].value = TOL_REL
+        self._variants: dict[tuple[bool, bool], tuple[moderngl.Program, moderngl.VertexArray]] = {}
+        self._variant(blur=False, rgb_only=False)  # compiled now: a shader error shows at start-up
         self._zero = gl.texture((1, 1), 4, np.zeros((1, 1, 4), np.float32), dtype="f4")  # unused samplers
+
+    def _variant(self, blur: bool, rgb_only: bool) -> tuple[moderngl.Program, moderngl.VertexArray]:
+        """The compose program (compose.glsl's BLUR, RGB_ONLY variants) and its vertex array,
+        compiled on first use with the constant uniforms set."""
+        key = (blur, rgb_only)
+        if key not in self._variants:
+            defines = ({"BLUR": 1} if blur else {}) | ({"RGB_ONLY": 1} if rgb_only else {})
+            prog = self.gl.program("compose", **defines)
+            mask = np.zeros(8, np.uint32)
+            for label in FRONT_LABELS:
+                mask[label >> 5] |= np.uint32(1 << (label & 31))
+            for p in (prog, self.layers_prog):
+                if "u_front_labels" in p:  # (not in the BLUR, RGB_ONLY variant's main pass)
+                    p["u_front_labels"].write(mask.tobytes())
+                    p["u_tol_abs"].value = TOL_ABS
+                    p["u_tol_rel"].value = TOL_REL
+            self._variants[key] = (prog, self.gl.own(self.gl.ctx.vertex_array(prog, [])))
+        return self._variants[key]
 
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
                     instances: Sequence[int], match: CameraMatch | None = None,
-                    tones: Sequence[tuple[float, float]] | None = None) -> dict[str, np.ndarray]:
-        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity.
+                    tones: Sequence[tuple[float, float]] | None = None,
+                    rgb_only: bool = False) -> dict[str, np.ndarray]:
+        """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity/visible
+        (``rgb_only``: rgb alone, for a view whose labels are not written: the right view).
         ``match``: blur and noise for the object layer (None: none); ``tones``: (gain, saturation)
         of each object's linear colour, the camera's look (lighting.camera.object_tones; None:
         as rendered)."""
@@ -95,17 +129,19 @@ class Composer:
         roi = passes.roi
         rows, cols = roi.slices
         size = (roi.width, roi.height)
-        made = {
+        match = match or CameraMatch()
+        prog, vao = self._variant(blur=match.blur_radius > 0, rgb_only=rgb_only)
+        made = {  # integer layers in as few bytes as hold them (read as uint all the same)
             "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
-            "u_labels": gl.texture(size, 1, scene.label_ids[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_instances": gl.texture(size, 1, scene.instance_ids[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_disparity": gl.texture(size, 1, scene.disparity[rows, cols].astype(np.uint32), dtype="u4"),
-            "u_ground": gl.texture(size, 1, np.zeros((roi.height, roi.width), np.uint32) if scene.ground is None
-                                   else scene.ground[rows, cols].astype(np.uint32), dtype="u4"),
+            "u_labels": _uint_texture(gl, size, scene.label_ids[rows, cols]),
+            "u_ground": _uint_texture(gl, size, np.zeros((roi.height, roi.width), np.uint8) if scene.ground is None
+                                      else scene.ground[rows, cols]),
         }
+        if not rgb_only:
+            made["u_instances"] = _uint_texture(gl, size, scene.instance_ids[rows, cols])
+            made["u_disparity"] = _uint_texture(gl, size, scene.disparity[rows, cols])
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
-        match = match or CameraMatch()
         noise_on = any(v > 0 for v in match.noise_sigma)
         if noise_on:  # seeded in NumPy: the same seed gives the same bytes on any machine
             noise = np.random.default_rng(match.seed).standard_normal((roi.height, roi.width, 3), np.float32)
@@ -121,55 +157,82 @@ class Composer:
         inputs["u_layer_obj"] = inputs["u_layer_bg"] = self._zero
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
-            for prog in (self.prog, self.layers_prog):
-                if name in prog:
-                    prog[name].value = unit
+            for p in (prog, self.layers_prog):
+                if name in p:
+                    p[name].value = unit
         tone = np.ones((16, 2), np.float32)
         for k, (gain, sat) in enumerate(tones or (), start=1):
             tone[k] = gain, sat
-        for prog in (self.prog, self.layers_prog):
-            prog["u_tone"].write(tone.tobytes())
-            prog["u_ground_band"].value = float(scene.ground_band)
-            prog["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
-        layers = []
-        if match.blur_radius:  # each pixel's layers once, for the blur's taps to read
-            layers = [gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")]
-            layers_fbo = gl.own(ctx.framebuffer(layers))
-            layers_fbo.use()
-            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-            self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
-            gl.free(layers_fbo)
-            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
-                tex.use(self.prog[name].value)
+        for p in (prog, self.layers_prog):  # (the BLUR variant's main pass reads the layers instead)
+            if "u_tone" in p:
+                p["u_tone"].write(tone.tobytes())
+            if "u_ground_band" in p:
+                p["u_ground_band"].value = float(scene.ground_band)
+                p["u_ground_rel"].value = GROUND_TOL_REL if scene.ground is not None else 0.0
         cls = np.zeros(16, np.uint32)
         cls[1:len(classes) + 1] = classes
         inst = np.zeros(16, np.uint32)
         inst[1:len(instances) + 1] = instances
-        self.prog["u_class"].write(cls.tobytes())
-        self.prog["u_instance"].write(inst.tobytes())
-        self.prog["u_disp_scale"].value = scene.disparity_scale
-        self.prog["u_noise_sigma"].value = tuple(float(v) / 255.0 for v in match.noise_sigma) if noise_on else (0.0,) * 3
-        self.prog["u_blur_radius"].value = match.blur_radius
-        self.prog["u_blur_sigma"].value = max(match.object_blur_sigma, 1e-3)
+        values = {"u_disp_scale": scene.disparity_scale, "u_blur_radius": match.blur_radius,
+                  "u_noise_sigma": tuple(float(v) / 255.0 for v in match.noise_sigma) if noise_on else (0.0,) * 3,
+                  "u_blur_sigma": max(match.object_blur_sigma, 1e-3)}
+        for name, value in values.items():  # a variant may not use each
+            if name in prog:
+                prog[name].value = value
+        if not rgb_only:
+            prog["u_class"].write(cls.tobytes())
+            prog["u_instance"].write(inst.tobytes())
+        h, w = roi.height, roi.width
+        out = {"rgb": np.empty((h, w, 3), np.uint8)}
+        if not rgb_only:
+            out |= {name: np.empty((h, w), dtype) for name, dtype in OUTPUTS}
+        # band by band (one band below BAND_PIXELS): the blur's layers and the outputs exist for
+        # one band at a time; the layers of the band and of the blur's reach around it
+        for y0, y1 in row_bands(w, h):
+            self._band(prog, vao, size, (y0, y1), match.blur_radius, rgb_only, out)
+        for tex in made.values():
+            gl.free(tex)
+        if not rgb_only:
+            out["instance_ids"] = out["instance_ids"].astype(np.int32)
+        return out
 
-        outs = [gl.texture(size, 4, dtype="f1"), gl.texture(size, 1, dtype="u4"),
-                gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4"), gl.texture(size, 1, dtype="u4")]
+    def _band(self, prog: moderngl.Program, vao: moderngl.VertexArray, size: tuple[int, int], band: tuple[int, int],
+              radius: int, rgb_only: bool, out: dict[str, np.ndarray]) -> None:
+        """Compose rows ``band`` of the region (``size``) into ``out``'s rows."""
+        gl, ctx = self.gl, self.gl.ctx
+        w, (y0, y1) = size[0], band
+        layers = []
+        if radius:  # each pixel's layers once, for the blur's taps to read
+            l0, l1 = max(y0 - radius, 0), min(y1 + radius, size[1])
+            layers = [gl.texture((w, l1 - l0), 4, dtype="f4"), gl.texture((w, l1 - l0), 4, dtype="f4")]
+            layers_fbo = gl.own(ctx.framebuffer(layers))
+            layers_fbo.use()
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.layers_prog["u_origin"].value = (0, l0)
+            self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
+            gl.free(layers_fbo)
+            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
+                tex.use(prog[name].value)
+            prog["u_layer_origin"].value = (0, l0)
+        if "u_origin" in prog:
+            prog["u_origin"].value = (0, y0)
+        # the outputs: rgb, then (not rgb_only) label, instance, disparity, visible index
+        bsize = (w, y1 - y0)
+        outs = [gl.texture(bsize, 4, dtype="f1")]
+        if not rgb_only:
+            outs += [gl.texture(bsize, 1, dtype="u1" if dtype == np.uint8 else "u2") for _, dtype in OUTPUTS]
         fbo = gl.own(ctx.framebuffer(outs))
         fbo.use()
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        vao.render(moderngl.TRIANGLES, vertices=3)
         gl.wait()
-        h, w = roi.height, roi.width
-        rgb = np.frombuffer(outs[0].read(), np.uint8).reshape(h, w, 4)[..., :3]
-        label = np.frombuffer(outs[1].read(), np.uint32).reshape(h, w)
-        instance = np.frombuffer(outs[2].read(), np.uint32).reshape(h, w)
-        disparity = np.frombuffer(outs[3].read(), np.uint32).reshape(h, w)
-        visible = np.frombuffer(outs[4].read(), np.uint32).reshape(h, w)
+        out["rgb"][y0:y1] = np.frombuffer(outs[0].read(), np.uint8).reshape(y1 - y0, w, 4)[..., :3]
+        if not rgb_only:
+            for (name, dtype), tex in zip(OUTPUTS, outs[1:]):
+                out[name][y0:y1] = np.frombuffer(tex.read(alignment=1), dtype).reshape(y1 - y0, w)
         gl.free(fbo)
-        for tex in outs + layers + list(made.values()):
+        for tex in outs + layers:
             gl.free(tex)
-        return {"rgb": rgb, "label_ids": label.astype(np.uint8), "instance_ids": instance.astype(np.int32),
-                "disparity": disparity.astype(np.uint16), "visible": visible.astype(np.uint8)}
 
     def compose(self, passes: RenderPasses | None, scene: SceneLayers, classes: Sequence[int],
                 instances: Sequence[int], match: CameraMatch | None = None,

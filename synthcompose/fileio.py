@@ -22,6 +22,7 @@ import numpy as np
 from pycocotools import mask as coco_mask
 
 from .errors import InputError, OutputError
+from .json_layout import dumps_json
 
 #: zlib level for every PNG we write (OpenCV's scale, 0-9). Low: PNG encoding dominates a batch.
 PNG_COMPRESSION = 1
@@ -29,6 +30,15 @@ PNG_COMPRESSION = 1
 #: it is faster than the default for every output (the photo 140 -> 108 ms) and smaller too
 #: (3.5 -> 3.1 MB; the label images to half): `python benchmarks/bench_png.py`
 PNG_STRATEGY = cv2.IMWRITE_PNG_STRATEGY_RLE
+#: PNG row filters by name (:func:`encode_png`'s ``png_filter``). None: libpng tries the five
+#: on every row and keeps the one whose bytes look most compressible - at level 1 that choice
+#: costs more than the compression. One fixed filter per kind of image is cheaper for the same
+#: pixels: "paeth" on photos and disparity (the files' size as with the adaptive choice, 15-20 %
+#: less CPU), "up" on label images (flat regions: a third of the CPU, a few KB more);
+#: `python benchmarks/bench_png.py`
+PNG_FILTERS = {"none": cv2.IMWRITE_PNG_FILTER_NONE, "sub": cv2.IMWRITE_PNG_FILTER_SUB,
+               "up": cv2.IMWRITE_PNG_FILTER_UP, "avg": cv2.IMWRITE_PNG_FILTER_AVG,
+               "paeth": cv2.IMWRITE_PNG_FILTER_PAETH}
 
 PngKind = Literal["rgb8", "gray8", "gray16"]
 T, R = TypeVar("T"), TypeVar("R")
@@ -130,13 +140,17 @@ def _describe(img: np.ndarray) -> str:
     return f"{img.dtype.itemsize * 8}-bit, {channels} channel(s), {img.shape[1]}x{img.shape[0]}"
 
 
-def encode_png(img: np.ndarray) -> bytes:
-    """Encode ``(H, W)`` uint8/uint16, ``(H, W, 3)`` RGB or ``(H, W, 4)`` RGBA uint8 as PNG."""
+def encode_png(img: np.ndarray, png_filter: str | None = None) -> bytes:
+    """Encode ``(H, W)`` uint8/uint16, ``(H, W, 3)`` RGB or ``(H, W, 4)`` RGBA uint8 as PNG;
+    ``png_filter``: one row filter of :data:`PNG_FILTERS` for every row (None: libpng's choice
+    per row). The pixels are the same whatever the filter."""
     img = np.ascontiguousarray(img)
     if img.ndim == 3:  # OpenCV writes BGR(A)
         img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR if img.shape[2] == 3 else cv2.COLOR_RGBA2BGRA)
-    ok, buf = cv2.imencode(".png", img, [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION,
-                                         cv2.IMWRITE_PNG_STRATEGY, PNG_STRATEGY])
+    params = [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION, cv2.IMWRITE_PNG_STRATEGY, PNG_STRATEGY]
+    if png_filter is not None:
+        params += [cv2.IMWRITE_PNG_FILTER, PNG_FILTERS[png_filter]]
+    ok, buf = cv2.imencode(".png", img, params)
     if not ok:  # pragma: no cover - OpenCV only fails on unsupported dtypes
         raise ValueError(f"cannot encode array of {img.dtype} {img.shape} as PNG")
     return buf.tobytes()
@@ -184,8 +198,8 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
         raise
 
 
-def write_png(path: str | Path, img: np.ndarray) -> None:
-    write_bytes_atomic(path, encode_png(img))
+def write_png(path: str | Path, img: np.ndarray, png_filter: str | None = None) -> None:
+    write_bytes_atomic(path, encode_png(img, png_filter))
 
 
 def _no_constant(name: str):
@@ -315,47 +329,6 @@ def read_json(path: str | Path) -> Any:
     except UnicodeDecodeError as exc:
         raise InputError(path, f"cannot be read ({exc})") from None
     return loads_json(text, path)
-
-
-_COMPACT = json.JSONEncoder(allow_nan=False, separators=(", ", ": "))
-
-
-def _flat(value: Any) -> bool:
-    """A list of numbers, or of lists of numbers (a polygon, a matrix, a box): one line."""
-    return all(isinstance(v, (int, float)) or (isinstance(v, list) and
-               all(isinstance(x, (int, float)) for x in v)) for v in value)
-
-
-def _layout(obj: Any, indent: str, out: list[str]) -> None:
-    """``obj`` as JSON into ``out``: objects and other lists indented by two spaces a level, as
-    ``json.dumps(indent=2)`` lays them out, but lists of numbers (and of number pairs) on one
-    line, encoded by the C encoder: a frame's polygons take a tenth of the CPU, and a tenth of
-    the lines."""
-    if isinstance(obj, dict) and obj:
-        inner = indent + "  "
-        out.append("{")
-        for k, (key, value) in enumerate(obj.items()):
-            name = key if isinstance(key, str) else _COMPACT.encode(key).strip('"')  # as json.dumps names keys
-            out.append(("," if k else "") + "\n" + inner + _COMPACT.encode(name) + ": ")
-            _layout(value, inner, out)
-        out.append("\n" + indent + "}")
-    elif isinstance(obj, (list, tuple)) and obj and not _flat(obj):
-        inner = indent + "  "
-        out.append("[")
-        for k, value in enumerate(obj):
-            out.append(("," if k else "") + "\n" + inner)
-            _layout(value, inner, out)
-        out.append("\n" + indent + "]")
-    else:
-        out.append(_COMPACT.encode(obj))
-
-
-def dumps_json(obj: Any) -> bytes:
-    """UTF-8 JSON of ``obj`` (NaN and Infinity refused), indented, with lists of numbers on one line."""
-    out: list[str] = []
-    _layout(obj, "", out)
-    out.append("\n")
-    return "".join(out).encode("utf-8")
 
 
 def write_json(path: str | Path, obj: Any) -> None:

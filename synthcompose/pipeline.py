@@ -31,7 +31,7 @@ from .dataset import ImageSetId
 from .errors import SynthComposeError
 from .frequency import object_weights
 from .gl import GLContext
-from .malloc import steady_malloc
+from .malloc import release_free_memory, steady_malloc
 from .manifest import Manifest
 from .placements import read_saved
 from .record import Status
@@ -140,6 +140,7 @@ class Pipeline:
                     on_begin(ident)
                 result = prepared if isinstance(prepared, (Outcome, Placed)) else \
                     _guarded(ident, timings, lambda: self._shade(prepared, timings))
+                release_free_memory()  # the render's buffers, before the next set's are made
                 if writing is not None:
                     yield writing.result()
                     writing = None
@@ -147,6 +148,10 @@ class Pipeline:
                     yield result
                 else:
                     writing = writer.submit(lambda r=result, t=timings, i=ident: _guarded(i, t, lambda: self._write(i, r, t)))
+                # drop this set's arrays here, not when the next set's take their names: while the
+                # next one is awaited, its photo, depth and frame would be held twice (the writer
+                # holds what it writes)
+                del item, prepared, result
             if writing is not None:
                 yield writing.result()
 
@@ -169,4 +174,7 @@ class Pipeline:
         """The write stage (thread-safe: touches no GL and no state of self)."""
         if isinstance(result, Placed):
             return write_skipped(self.manifest, ident, result, timings)
-        return write_done(self.manifest, ident, result, timings)
+        try:
+            return write_done(self.manifest, ident, result, timings)
+        finally:
+            release_free_memory()  # the encoders' and polygons' buffers

@@ -47,7 +47,8 @@ def _contours(mask: np.ndarray, mode: int, chain: int = cv2.CHAIN_APPROX_NONE
                ) -> tuple[list[np.ndarray], np.ndarray | None]:
     """OpenCV contours ((N, 2) int x, y; every boundary pixel by default) of a 0/1 mask and their
     hierarchy."""
-    contours, hierarchy = cv2.findContours(np.pad(mask.astype(np.uint8), 1), mode, chain)
+    padded = cv2.copyMakeBorder(mask.astype(np.uint8), 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    contours, hierarchy = cv2.findContours(padded, mode, chain)
     return [c.reshape(-1, 2) - 1 for c in contours], (None if hierarchy is None else hierarchy[0])
 
 
@@ -58,7 +59,7 @@ def _splice(ring: list[tuple[int, int]], at: int, loop: list[tuple[int, int]]) -
 
 
 def _rotated(points: np.ndarray, start: int) -> list[tuple[int, int]]:
-    return [(int(x), int(y)) for x, y in np.roll(points, -start, axis=0)]
+    return list(map(tuple, np.roll(points, -start, axis=0).tolist()))
 
 
 def _cut_up(ring: list[tuple[int, int]], hole: np.ndarray, mask: np.ndarray) -> list[tuple[int, int]]:
@@ -163,19 +164,22 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
     another entry would draw over it (a hole in a region).
     """
     label_ids = np.asarray(label_ids)
-    instance_ids = np.asarray(instance_ids).astype(np.int64)
+    instance_ids = np.asarray(instance_ids)
+    if instance_ids.dtype != np.int32:
+        instance_ids = instance_ids.astype(np.int64 if instance_ids.size and instance_ids.max() >= 2 ** 31 else np.int32)
     # each pixel's segment: its instance id, or its label id (a class without instances, a group)
     segment = np.where(instance_ids >= INSTANCE_FACTOR, instance_ids, label_ids)
     values = np.flatnonzero(np.bincount(segment.ravel()))
     lookup = np.zeros(int(values[-1]) + 1, np.int32)
-    lookup[values] = np.arange(values.size)
+    lookup[values] = np.arange(1, values.size + 1)  # 1 + the segment's place in values: find_objects' labels
     index = lookup[segment]
+    del segment
     owner = np.full(label_ids.shape, -1, np.int32)  # the entry each pixel belongs to
     entries: list[dict[str, Any]] = []  # label, polygon, box (x, y, w, h), drawn area in the box
     chains: dict[int, list[int]] = defaultdict(list)  # class -> its instances' entries, by id
-    for k, box in enumerate(find_objects(index + 1)):
+    for k, box in enumerate(find_objects(index)):
         value = int(values[k])
-        own_box = index[box] == k
+        own_box = index[box] == k + 1
         y0, x0 = box[0].start, box[1].start
         if value >= INSTANCE_FACTOR:  # an instance: one entry
             poly = mask_polygon(own_box, min_part_pixels=1)  # a speck left out would show what lies under it
@@ -243,10 +247,10 @@ def _drawing_order(entries: list[dict[str, Any]], owner: np.ndarray, chains: lis
     hard = np.zeros(n, np.int64)  # instances of its class with a lower id not yet placed
     for a, e in enumerate(entries):
         x, y, w, h = e["box"]
-        under = owner[y:y + h, x:x + w][e["drawn"]]
-        values, counts = np.unique(under[(under >= 0) & (under != a)], return_counts=True)
-        for b, c in zip(values.tolist(), counts.tolist()):
-            succ[a][b] = c
+        counts = np.bincount(owner[y:y + h, x:x + w][e["drawn"]] + 1, minlength=n + 1)[1:]  # -1: no entry
+        counts[a] = 0
+        for b in np.flatnonzero(counts).tolist():
+            succ[a][b] = c = int(counts[b])
             soft[b] += c
     after: dict[int, int] = {}
     for chain in chains:

@@ -60,23 +60,35 @@ class _Mesh:
     def __init__(self, gl: GLContext, vertices: bytes, indices: bytes, tangents: bytes | None = None) -> None:
         self._gl = gl
         self._vbo = gl.own(gl.ctx.buffer(vertices))
-        self._ibo = gl.own(gl.ctx.buffer(indices))
+        self.index_count = len(indices) // 4
+        self._ibos = {False: gl.own(gl.ctx.buffer(indices))}
         self._tbo = gl.own(gl.ctx.buffer(tangents)) if tangents is not None else None
-        self._vaos: dict[moderngl.Program, moderngl.VertexArray] = {}
+        self._vaos: dict[tuple[moderngl.Program, bool], moderngl.VertexArray] = {}
 
-    def vao(self, prog: moderngl.Program) -> moderngl.VertexArray:
-        """The vertex array of this mesh for ``prog`` (made on first use)."""
-        if prog not in self._vaos:
+    def vao(self, prog: moderngl.Program, reverse: bool = False) -> moderngl.VertexArray:
+        """The vertex array of this mesh for ``prog`` (made on first use); ``reverse``: its
+        triangles in the opposite order (each one's vertices as they are), so that a draw of
+        index range [first, first + count) in :meth:`reversed_range` is the same triangles
+        drawn last to first."""
+        if (prog, reverse) not in self._vaos:
+            if reverse not in self._ibos:
+                tris = np.frombuffer(self._ibos[False].read(), np.uint32).reshape(-1, 3)[::-1]
+                self._ibos[reverse] = self._gl.own(self._gl.ctx.buffer(np.ascontiguousarray(tris).tobytes()))
             fmt = [vertex_layout(prog, self._vbo, VERTEX_LAYOUT)]
             if self._tbo is not None and prog.get("in_tangent", None) is not None:
                 fmt.append(vertex_layout(prog, self._tbo, (("in_tangent", 4),)))
-            self._vaos[prog] = self._gl.own(self._gl.ctx.vertex_array(prog, fmt, index_buffer=self._ibo,
-                                                                      index_element_size=4))
-        return self._vaos[prog]
+            self._vaos[prog, reverse] = self._gl.own(self._gl.ctx.vertex_array(
+                prog, fmt, index_buffer=self._ibos[reverse], index_element_size=4))
+        return self._vaos[prog, reverse]
+
+    def reversed_range(self, first: int, count: int) -> int:
+        """Where the index range [first, first + count) of this mesh starts in the reversed
+        index buffer (:meth:`vao` with ``reverse``)."""
+        return self.index_count - first - count
 
     def release(self) -> None:
         """Free the GL objects of this mesh (it is not drawn again)."""
-        for obj in (*self._vaos.values(), self._vbo, self._ibo, self._tbo):
+        for obj in (*self._vaos.values(), self._vbo, *self._ibos.values(), self._tbo):
             if obj is not None:
                 self._gl.free(obj)
         self._vaos.clear()
@@ -150,6 +162,15 @@ class GpuModel(_Mesh):
             else:
                 self.ranges.append((start, len(idx), maps))
             start += len(idx)
+        #: (first index, index count) of the runs of opaque parts (no glass), run together
+        self.opaque_runs: list[tuple[int, int]] = []
+        for first, count, maps in self.ranges:
+            if maps.transmission > 0.0:
+                continue
+            if self.opaque_runs and sum(self.opaque_runs[-1]) == first:
+                self.opaque_runs[-1] = (self.opaque_runs[-1][0], self.opaque_runs[-1][1] + count)
+            else:
+                self.opaque_runs.append((first, count))
 
     def release(self) -> None:
         """Free the buffers, vertex arrays and textures of this model."""
@@ -162,6 +183,15 @@ class GpuModel(_Mesh):
     def draw(self, name: str) -> None:
         """The whole model with the renderer's program ``name`` (its uniforms set)."""
         self.vao(self._programs[name]).render(moderngl.TRIANGLES)
+
+    def draw_opaque(self, name: str) -> None:
+        """The model's opaque parts (:attr:`opaque_runs`: not its glass) with program ``name``."""
+        vao = self.vao(self._programs[name])
+        if len(self.opaque_runs) == 1 and self.opaque_runs[0] == (0, self.index_count):
+            vao.render(moderngl.TRIANGLES)
+            return
+        for first, count in self.opaque_runs:
+            vao.render(moderngl.TRIANGLES, vertices=count, first=first)
 
     def draw_ids(self, index: int) -> None:
         """The id pass of object ``index`` (its other uniforms set): each part's value is the

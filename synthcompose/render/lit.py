@@ -155,34 +155,54 @@ class LitDraw:
         return prog
 
     def draw(self, objects: Sequence[RenderObject], lighting: Lighting, objects_too: bool,
-             shadows: bool = True) -> None:
+             shadows: bool = True, reverse: bool = False) -> None:
         """Draw the objects' ground planes (``shadows`` False: unshadowed, for Ir) and
         (``objects_too``) the objects over them with the lit programs, into the bound framebuffer.
         Each run of parts with the same maps is drawn with the variant for those maps (:meth:`program`);
-        the opaque parts of every object first, then their glass (:meth:`_draw_glass`)."""
+        the opaque parts of every object first, then their glass (:meth:`_draw_glass`).
+        ``reverse``: every opaque triangle of that sequence in the opposite order (the objects
+        last to first, then the planes), the glass after them as forwards: with a depth test that
+        passes equal depths, the fragment that is left at a pixel is the one the forward order
+        leaves with a strict test (the first drawn of the nearest),
+        :class:`~synthcompose.render.shading.PerPixel`'s depth pre-pass (of the opaque parts)."""
+        if not reverse:
+            self._draw_planes(objects, lighting, shadows, reverse)
+        glass, variants = self._draw_objects(objects, reverse) if objects_too else ([], {})
+        if reverse:
+            self._draw_planes(objects, lighting, shadows, reverse)
+        if glass:
+            if reverse:
+                self.gl.ctx.depth_func = "<"  # the forward draw's test against the opaque parts' depth
+            self._draw_glass(glass, variants)
+
+    def _draw_planes(self, objects: Sequence[RenderObject], lighting: Lighting, shadows: bool, reverse: bool) -> None:
         prog = self.program(plane=True, shadows=shadows)
-        vao = self.plane.vao(prog)
-        for obj in objects:
+        vao = self.plane.vao(prog, reverse)
+        for obj in (reversed(objects) if reverse else objects):
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)
-        if not objects_too:
-            return
-        # objects drawn over their planes
+
+    def _draw_objects(self, objects: Sequence[RenderObject], reverse: bool) -> tuple[list, dict]:
+        """The objects' opaque runs over their planes (``reverse``: :meth:`draw`), each with the
+        variant for its maps; their glass runs (object, run) and the variants, for :meth:`_draw_glass`."""
         variants: dict[tuple[bool, bool, bool], moderngl.Program] = {}
         glass = []
-        for obj in objects:
-            for run in self._gpu_model(obj.model).ranges:
+        for obj in (reversed(objects) if reverse else objects):
+            ranges = self._gpu_model(obj.model).ranges
+            for run in (reversed(ranges) if reverse else ranges):
                 if run[2].transmission > 0.0:
                     glass.append((obj, run))
                 else:
-                    self._draw_run(obj, run, variants)
-        if glass:
-            self._draw_glass(glass, variants)
+                    self._draw_run(obj, run, variants, reverse)
+        if reverse:  # the glass in the forward order
+            glass.reverse()
+        return glass, variants
 
-    def _draw_run(self, obj: RenderObject, run, variants: dict) -> None:
-        """One run of ``obj``'s parts (first index, count, maps) with its lit variant."""
+    def _draw_run(self, obj: RenderObject, run, variants: dict, reverse: bool = False) -> None:
+        """One run of ``obj``'s parts (first index, count, maps) with its lit variant
+        (``reverse``: its triangles last to first)."""
         first, count, maps = run
         base = self._base_texture(obj, maps)
         key = (base is not None, maps.normal is not None, maps.transmission > 0.0)
@@ -200,7 +220,9 @@ class LitDraw:
         if maps.normal is not None:
             maps.normal.use(6)
             prog["u_normal_scale"].value = maps.normal_scale
-        self._gpu_model(obj.model).vao(prog).render(moderngl.TRIANGLES, vertices=count, first=first)
+        gpu = self._gpu_model(obj.model)
+        gpu.vao(prog, reverse).render(moderngl.TRIANGLES, vertices=count,
+                                      first=gpu.reversed_range(first, count) if reverse else first)
 
     def _draw_glass(self, glass: list, variants: dict) -> None:
         """The glass runs over everything drawn, blended (premultiplied: what a pane reflects is
@@ -212,6 +234,7 @@ class LitDraw:
         eye = np.asarray(self.uniforms["u_camera_pos"], np.float64)
         glass = sorted(glass, key=lambda item: -float(np.linalg.norm(item[0].vehicle_from_object[:3, 3] - eye)))
         fbo = ctx.fbo
+        depth_mask = fbo.depth_mask
         fbo.depth_mask = False
         ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
         ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
@@ -223,4 +246,4 @@ class LitDraw:
         finally:
             ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
             ctx.cull_face = "back"
-            fbo.depth_mask = True
+            fbo.depth_mask = depth_mask

@@ -15,10 +15,15 @@ from ..gl import GLContext
 from ..models import Model
 from .gpu_model import GpuModel, GroundPlane
 from .lit import LitDraw, bind_inputs, environment, frame_uniforms
-from .shading import PRECISIONS, SHADING, FillPrograms, PerPixel, PerSample, device_shading
+from .bands import copy_rows, row_bands, viewport, with_apron
+from .shading import PRECISIONS, SHADING, FillPrograms, PerPixel, PerSample, device_shading, framebuffer
 from .shadows import ShadowMaps, light_matrices
 from .transforms import gl_mat4
 from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_camera, roi_for
+
+
+#: the lit passes' resolved textures: (name, components), all float32; Ir last
+PASSES = (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4), ("ir", 4))
 
 
 def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl.Texture], *done) -> None:
@@ -65,6 +70,7 @@ class Renderer:
         self._blank = gl.texture((1, 1), 4, np.full((1, 1, 4), 255, np.uint8))
         self.shadows = ShadowMaps(gl, shadow_size)
         self._lit = LitDraw(gl, GroundPlane(gl), self._gpu_model)
+        self._env: tuple[np.ndarray, moderngl.Texture] | None = None  # (photo, its reflection texture)
         self._shading = PerSample(gl, self._lit, precision) if fill is None else \
             PerPixel(gl, fill, self._lit, self._gpu_model, precision)
 
@@ -107,43 +113,89 @@ class Renderer:
         self._trim(objects)
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
+        rows, cols = roi.slices
+        photo_roi = None if photo is None else np.ascontiguousarray(photo[rows, cols])
+        sun_roi = None if sun_mask is None else np.ascontiguousarray(sun_mask[rows, cols], np.float32)
         tex: dict[str, moderngl.Texture] = {}
+        env = None
         if photo is not None:
-            rows, cols = roi.slices
-            tex["photo"] = gl.texture(size, 3, np.ascontiguousarray(photo[rows, cols]), dtype="f1")
-            tex["env"] = environment(gl, photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
-        if sun_mask is not None:
-            rows, cols = roi.slices
-            tex["sun_mask"] = gl.texture(size, 1, np.ascontiguousarray(sun_mask[rows, cols], np.float32), dtype="f4")
+            tex["photo"] = gl.texture(size, 3, photo_roi, dtype="f1")
+            env = self._environment(photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
         light = light_matrices(objects, lighting)  # half, sun, sky, under
         self.shadows.draw(objects, light[1:], self._gpu_model)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
-                                            tex.get("env"), sun_mask is not None)
-        bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), tex.get("env"), tex.get("sun_mask"))
+                                            env, sun_mask is not None)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        bands = row_bands(*size)
+        if len(bands) == 1:  # the whole region at once
+            if sun_roi is not None:
+                tex["sun_mask"] = gl.texture(size, 1, sun_roi, dtype="f4")
+            bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), env, tex.get("sun_mask"))
+            tex.update(self._lit_passes(objects, lighting, size, view, proj))
+        else:  # band by band into the whole region's passes (render.bands)
+            whole = {name: gl.texture(size, c, dtype="f4") for name, c in PASSES}
+            for band in bands:
+                self._band(objects, lighting, size, view, proj, band, whole, env, photo_roi, sun_roi)
+            tex.update(whole)
+        tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
+        return RenderPasses(roi, cam, tex, gl)
 
-        # multisampled lit pass -> irpv, alpha, odepth, plane, objc; then ir. The large targets
-        # (about 300 bytes per ROI pixel in all) are made where needed and freed as soon as
-        # they are done with, so that a large ROI (a car close by: 2048 x 721) peaks lower
+    def _lit_passes(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
+                    view: np.ndarray, proj: np.ndarray) -> dict[str, moderngl.Texture]:
+        """The multisampled lit pass resolved into irpv, alpha, odepth, plane, objc, then ir, for
+        the framebuffer size ``size`` (the shading's viewport: the region or a band of it). The
+        large targets (about 300 bytes per ROI pixel in all) are made where needed and freed as
+        soon as they are done with."""
+        gl = self.gl
         ms, ms_depth, ms_fbo = self._shading.lit_pass(objects, lighting, size, view, proj)
-        tex.update({name: gl.texture(size, c, dtype="f4") for name, c in
-                    (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4))})
+        out = {name: gl.texture(size, c, dtype="f4") for name, c in PASSES[:-1]}
         # freed once resolved, but for the colour target ms[0] and the depth: they serve Ir
-        _resolve(gl, ms_fbo, [tex["irpv"], tex["alpha"], tex["odepth"], tex["plane"], tex["objc"]], *ms[1:])
+        _resolve(gl, ms_fbo, list(out.values()), *ms[1:])
         # Ir: the planes alone, unshadowed, made as Irpv's planes were (shaded per sample, or
         # once per pixel and filled), so that the two agree where a plane covers part of a pixel
         source = self._shading.ir_source(objects, lighting, size)
-        ms_fbo_ir = gl.own(ctx.framebuffer(ms[:1], ms_depth))
+        ms_fbo_ir = framebuffer(gl, ms[:1], ms_depth, self._shading.viewport)
         ms_fbo_ir.use()
         ms_fbo_ir.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self._shading.draw_ir(objects, lighting, source)
-        tex["ir"] = gl.texture(size, 4, dtype="f4")
-        _resolve(gl, ms_fbo_ir, [tex["ir"]], ms_depth, ms[0])
-        tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
-        return RenderPasses(roi, cam, tex, gl)
+        out["ir"] = gl.texture(size, 4, dtype="f4")
+        _resolve(gl, ms_fbo_ir, [out["ir"]], ms_depth, ms[0])
+        return out
+
+    def _band(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int], view: np.ndarray,
+              proj: np.ndarray, band: tuple[int, int], whole: dict[str, moderngl.Texture], env,
+              photo_roi: np.ndarray | None, sun_roi: np.ndarray | None) -> None:
+        """One band of rows of the region's lit passes, into ``whole`` (:mod:`.bands`)."""
+        gl = self.gl
+        drawn = with_apron(band, size[1])
+        band_size = (size[0], drawn[1] - drawn[0])
+        inputs = [None if a is None else gl.texture(band_size, c, np.ascontiguousarray(a[drawn[0]:drawn[1]]), dtype=d)
+                  for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"))]
+        bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1])
+        self._shading.viewport = viewport(drawn, *size)
+        try:
+            out = self._lit_passes(objects, lighting, band_size, view, proj)
+        finally:
+            self._shading.viewport = None
+        names = [name for name, _ in PASSES]
+        copy_rows(gl, [out[n] for n in names], [whole[n] for n in names], band[0] - drawn[0], band[0],
+                  band[1] - band[0])
+        for t in list(out.values()) + [t for t in inputs if t is not None]:
+            gl.free(t)
+
+    def _environment(self, photo: np.ndarray) -> moderngl.Texture:
+        """The reflection texture of ``photo`` (:func:`~.lit.environment`), made once for the
+        render of both views of a stereo pair (the right view reflects the left photo) and kept
+        until a render asks for another photo."""
+        if self._env is not None and self._env[0] is photo:
+            return self._env[1]
+        if self._env is not None:
+            self.gl.free(self._env[1])
+        self._env = (photo, environment(self.gl, photo))
+        return self._env[1]
 
     def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
         """The id pass: (uint object index 1..K at each pixel centre, 0 = none, with a part's

@@ -38,15 +38,26 @@ def device_shading(renderer_name: str) -> str:
 PRECISIONS = ("half", "full")
 
 
-def multisampled(gl: GLContext, size: tuple[int, int], precision: str = "half"):
+def framebuffer(gl: GLContext, colours: Sequence, depth=None,
+                viewport: tuple[int, int, int, int] | None = None) -> moderngl.Framebuffer:
+    """A framebuffer of ``colours`` and ``depth`` (owned by ``gl``); ``viewport``: where its
+    draws map the region of interest (a band of it: :mod:`.bands`), None: onto the whole."""
+    fbo = gl.own(gl.ctx.framebuffer(list(colours), depth))
+    if viewport is not None:
+        fbo.viewport = viewport
+    return fbo
+
+
+def multisampled(gl: GLContext, size: tuple[int, int], precision: str = "half",
+                 viewport: tuple[int, int, int, int] | None = None):
     """The lit pass's 4x multisampled targets (irpv, alpha, odepth, plane, objc: lit.glsl's
-    outputs 0-4), their depth, and a framebuffer of them (:data:`PRECISIONS`)."""
+    outputs 0-4), their depth, and a framebuffer of them (:data:`PRECISIONS`, :func:`framebuffer`)."""
     ctx = gl.ctx
     colour = "f2" if precision == "half" else "f4"
     ms = [gl.own(ctx.renderbuffer(size, c, samples=SAMPLES, dtype=dtype))
           for c, dtype in ((4, colour), (1, colour), (1, "f4"), (2, "f4"), (4, colour))]
     ms_depth = gl.own(ctx.depth_renderbuffer(size, samples=SAMPLES))
-    return ms, ms_depth, gl.own(ctx.framebuffer(ms, ms_depth))
+    return ms, ms_depth, framebuffer(gl, ms, ms_depth, viewport)
 
 
 class PerSample:
@@ -54,12 +65,13 @@ class PerSample:
 
     def __init__(self, gl: GLContext, lit: LitDraw, precision: str = "half") -> None:
         self.gl, self.lit, self.precision = gl, lit, precision
+        self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
         """Irpv's multisampled targets drawn (:func:`multisampled`), to resolve (``view`` and
         ``proj`` unused: the lit programs' uniforms carry them)."""
-        ms, ms_depth, ms_fbo = multisampled(self.gl, size, self.precision)
+        ms, ms_depth, ms_fbo = multisampled(self.gl, size, self.precision, self.viewport)
         ms_fbo.use()
         ms_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.lit.draw(objects, lighting, objects_too=True)
@@ -100,6 +112,7 @@ class PerPixel:
                  gpu_model: Callable[[Model], GpuModel], precision: str = "half") -> None:
         self.gl, self.fill, self.lit, self.precision = gl, fill, lit, precision
         self._gpu_model = gpu_model
+        self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
@@ -114,17 +127,26 @@ class PerPixel:
         centre = [gl.own(ctx.renderbuffer(size, c, dtype="f4")) for c in (4, 1, 1, 2)]
         centre_depth = gl.own(ctx.depth_renderbuffer(size))
         object_col, object_key, plane_col = (gl.texture(size, 4, dtype="f4") for _ in range(3))
-        objects_fbo = gl.own(ctx.framebuffer(centre + [object_col, object_key], centre_depth))
-        planes_fbo = gl.own(ctx.framebuffer([plane_col], centre_depth))
-        for fbo, with_objects in ((objects_fbo, True), (planes_fbo, False)):
-            fbo.use()
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            self.lit.draw(objects, lighting, objects_too=with_objects)
+        objects_fbo = framebuffer(gl, centre + [object_col, object_key], centre_depth, self.viewport)
+        planes_fbo = framebuffer(gl, [plane_col], centre_depth, self.viewport)
+        # the nearest surface's depth first, so that lit.glsl shades each pixel once: the
+        # objects' triangles overlap two to three deep, and llvmpipe shades every fragment that
+        # passes the depth test when it comes (lit.glsl's objects are most of the pass)
+        self._depth_prepass(objects, lighting, centre_depth, view, proj)
+        objects_fbo.use()
+        objects_fbo.depth_mask = False
+        objects_fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.depth_func = "<="
+        self.lit.draw(objects, lighting, objects_too=True, reverse=True)  # what "<" forwards leaves
+        ctx.depth_func = "<"
+        planes_fbo.use()
+        planes_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.lit.draw(objects, lighting, objects_too=False)
         for obj in (objects_fbo, planes_fbo, centre_depth, *centre):  # only their textures are read on
             gl.free(obj)
         # the other material near each pixel (fill.glsl, NEIGHBOURS), once per pixel
         other_col, other_key = gl.texture(size, 4, dtype="f4"), gl.texture(size, 4, dtype="f4")
-        others_fbo = gl.own(ctx.framebuffer([other_col, other_key]))
+        others_fbo = framebuffer(gl, [other_col, other_key])  # one triangle over the framebuffer
         textures = {"u_object_col": object_col, "u_object_key": object_key, "u_plane_col": plane_col,
                     "u_other_col": other_col, "u_other_key": other_key}
         units = {name: unit for unit, name in enumerate(textures, start=7)}
@@ -138,7 +160,7 @@ class PerPixel:
         ctx.enable(moderngl.DEPTH_TEST)
         gl.free(others_fbo)
         gl.wait()  # the freed targets are released once drawn: before the multisampled ones exist
-        ms, ms_depth, ms_fbo = multisampled(gl, size, self.precision)
+        ms, ms_depth, ms_fbo = multisampled(gl, size, self.precision, self.viewport)
         fill, fill_plane = self.fill.objects, self.fill.planes
         for prog in (fill, fill_plane):  # (the plane variant's texture: _fill_planes)
             prog["u_view"].write(gl_mat4(view))
@@ -157,6 +179,28 @@ class PerPixel:
         gl.wait()
         return ms, ms_depth, ms_fbo
 
+    def _depth_prepass(self, objects: Sequence[RenderObject], lighting: Lighting, depth: moderngl.Renderbuffer,
+                       view: np.ndarray, proj: np.ndarray) -> None:
+        """The depth of the nearest plane or opaque part at each pixel centre into ``depth``, drawn
+        with fill.glsl, whose vertex stage computes the position as lit.glsl's does (the same
+        products in the same order: the same depths, which the lit draw then tests with "<=")."""
+        gl = self.gl
+        fbo = framebuffer(gl, [], depth, self.viewport)
+        fbo.use()
+        fbo.clear(depth=1.0)
+        fill, fill_plane = self.fill.objects, self.fill.planes
+        for prog in (fill, fill_plane):
+            prog["u_view"].write(gl_mat4(view))
+            prog["u_proj"].write(gl_mat4(proj))
+        vao = self.lit.plane.vao(fill_plane)
+        for obj in objects:
+            fill_plane["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
+            vao.render(moderngl.TRIANGLES)
+        for obj in objects:  # not the glass, which the lit draw blends over this depth
+            fill["u_model"].write(gl_mat4(obj.vehicle_from_object))
+            self._gpu_model(obj.model).draw_opaque("fill")
+        gl.free(fbo)
+
     def ir_source(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int]):
         """The objects' ground planes alone, unshadowed, shaded once per pixel at its centre: a
         texture, for Ir to be filled from as Irpv's planes were (:meth:`draw_ir`). Made after
@@ -165,7 +209,7 @@ class PerPixel:
         gl.wait()  # the freed targets are released once Irpv's resolve is done: before these exist
         plane_ir = gl.texture(size, 4, dtype="f4")
         depth = gl.own(ctx.depth_renderbuffer(size))
-        fbo = gl.own(ctx.framebuffer([plane_ir], depth))
+        fbo = framebuffer(gl, [plane_ir], depth, self.viewport)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.lit.draw(objects, lighting, objects_too=False, shadows=False)

@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..compose import FRONT_LABELS, Composer, SceneLayers
+from ..compose import FRONT_LABELS, Composer, SceneLayers, label_mask
 from ..lighting import CameraMatch
 from ..lighting.light import Lighting
 from ..render import RenderObject, Renderer
@@ -45,7 +45,7 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects:
         layers["ground"] = scene.ground
     if sun_mask is not None:
         layers["sun"] = np.asarray(sun_mask, np.float32)
-    carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=np.isin(scene.label_ids, FRONT_LABELS))
+    carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=label_mask(scene.label_ids, FRONT_LABELS))
     passes = renderer.render(cam, objects, lighting, photo=photo, roi=roi, sun_mask=carried.get("sun"),
                              eye=(left, prep.image_set.rgb))
     if passes is None:
@@ -55,7 +55,7 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects:
                             np.zeros(carried["label_ids"].shape, np.uint16), carried["depth"], scene.disparity_scale,
                             ground=carried.get("ground"), ground_band=scene.ground_band)
         match = None if match is None else replace(match, seed=right_noise_seed(match.seed))
-        out = composer.compose_roi(passes, right, classes, instances, match, tones)
+        out = composer.compose_roi(passes, right, classes, instances, match, tones, rgb_only=True)
     finally:
         renderer.release(passes)
     rgb = photo.copy()

@@ -14,7 +14,7 @@ import numpy as np
 from ..appearance import Appearance, appearance_rng, draw_appearance
 from ..camera import Camera
 from ..colour import srgb_to_linear
-from ..compose import Composed, Composer, SceneLayers
+from ..compose import Composed, Composer, SceneLayers, label_mask
 from ..fileio import DISPARITY_SCALE
 from ..geometry import Frame, occluder_depth
 from ..labels import label_id
@@ -23,7 +23,7 @@ from ..manifest import Manifest
 from ..placement import GROUND_LEVEL, Placement
 from ..placement.noise import K_SIGMA
 from ..record import ImageSetRecord
-from ..render import RenderObject, Renderer, amodal_boxes
+from ..render import RenderObject, Renderer, amodal_boxes, roi_for
 from .place import Placed
 from .prepare import PhotoLight, Prepared
 from .right import shade_right
@@ -47,6 +47,17 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
         return (0.15, 0.15, 0.15)
     lin = srgb_to_linear(rgb[v[ok2], u[ok2]].astype(np.float64) / 255.0)
     return tuple(float(c) for c in np.median(lin, axis=0))
+
+
+def occluders_in_rows(depth: np.ndarray, bands: list[slice]) -> np.ndarray:
+    """:func:`~synthcompose.geometry.occluder_depth` of ``depth`` in the rows from the first of
+    ``bands`` to the last (its holes are filled along rows: the same values there as over the
+    whole frame), inf in the others, which the compose does not read."""
+    out = np.full(depth.shape, np.inf, np.float32)
+    if bands:
+        r0, r1 = min(b.start for b in bands), max(b.stop for b in bands)
+        out[r0:r1] = occluder_depth(depth[r0:r1])
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,9 +120,13 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
                                  sun_mask=sun_mask)
     with timed(timings, "compose"):
         noise = placed.noise
+        # the rows the compose passes read: the left region of interest's and the right one's
+        rois = [passes.roi if passes is not None else None,
+                roi_for(cam.right_camera(), objects, lighting) if image_set.right_rgb is not None else None]
         scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
-                            occluder_depth(prep.depth), cam.baseline * cam.fx * DISPARITY_SCALE,
-                            ground=np.isin(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
+                            occluders_in_rows(prep.depth, [r.slices[0] for r in rois if r is not None]),
+                            cam.baseline * cam.fx * DISPARITY_SCALE,
+                            ground=label_mask(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
                             ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
         classes = [label_id(o.spec.class_name) for o in placed.objects]
         tones, camera_looks = None, [None] * len(placed.objects)
