@@ -5,12 +5,17 @@ disparity and the photo.
    disparity: the ground profile d_g(v). It starts from the camera's own ground plane (z = 0 in
    V) and is refined row by row by the strongest disparity near it (the road is the widest
    surface of a street's lower image), then smoothed by a robust low-order fit, so slopes and
-   the pitch of the car are followed.
+   the pitch of the car are followed; then the road's bends off that quadratic (a dip before a
+   junction, a crest) are followed from the car's own lane ahead, smoothed over metres.
 2. **Heights.** A pixel of disparity d on row v lies h = H (1 - d_g(v) / d) above the ground
    (H: the camera's height): a kerb's 10-15 cm is a 10 % step in disparity at any depth, well
    above the matcher's noise. The height map is median-filtered over a few pixels.
 3. **Road**: level pixels (|h| within the noise band at their depth) whose colour is the road's
    (a robust colour model of the level ground in front of the car) and that connect to it.
+   A cast shadow changes the light, not the ground: the car's own lane ahead, level and
+   continuous in height with the ground in front of the car, is road in whatever light, so
+   where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
+   light's road colour is modelled from it too.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
    road. Everything else is 0 (unlabelled).
 
@@ -48,6 +53,19 @@ GRASS_SATURATION, GRASS_YELLOW = 18, 5
 TOUCH_PX = 4
 #: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
 FOOT_REACH = 0.6
+#: the car's own lane ahead: within this far left or right of the camera (metres), 4 m to
+#: LANE_REACH ahead, level and continuous from the seed, is carriageway, sunlit or in shadow
+LANE_HALF, LANE_REACH = 1.2, 40.0
+#: the ground profile follows the road's bends: rows within this share of the quadratic
+#: profile's disparity, their offsets smoothed over this many working rows
+PROFILE_FOLLOW, PROFILE_ROWS = 0.06, 11
+#: a second light on the lane (a sunlit band beyond a cast shadow, or the reverse): lane
+#: pixels off the road's colour models on rows where at least LANE_BAND_SHARE of the lane is off
+#: them (a light band spans the lane; paint does not), at least LANE_MODE_SHARE of the frame's
+#: working pixels and 30 pixels (a far patch of sun is few pixels: a count, not a share of the lane)
+LANE_BAND_SHARE, LANE_MODE_SHARE = 0.6, 1e-4
+#: the colour model's least robust spread, LAB
+SPREAD_FLOOR = (10.0, 4.0, 4.0)
 
 
 @dataclass(frozen=True)
@@ -79,7 +97,7 @@ def plane_disparity(camera: Camera, rows: np.ndarray, width: int) -> np.ndarray:
     return np.where(np.isfinite(z), camera.fx * camera.baseline / z, 0.0)
 
 
-def _profile(disp: np.ndarray, plane: np.ndarray) -> np.ndarray:
+def _profile(disp: np.ndarray, plane: np.ndarray, cam: Camera) -> np.ndarray:
     """(h,) ground disparity per row: per row, the median disparity of the pixels within 12 %
     of the camera's plane, weighted to the central columns; then a robust quadratic in the
     row of d_g / d_plane, so slopes and pitch are followed but single rows are not."""
@@ -111,8 +129,39 @@ def _profile(disp: np.ndarray, plane: np.ndarray) -> np.ndarray:
         res = ratio - np.polyval(coef, rows / h)
         keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.005)
     ok = plane[:, w // 2] > 1.0
-    out[ok] = np.polyval(coef, np.arange(h)[ok] / h)
+    fit = np.polyval(coef, np.arange(h) / h)
+    out[ok] = (fit + _bends(disp, plane, fit, cam))[ok]
     return out  # ratio to the plane's disparity, per row
+
+
+def _bends(disp: np.ndarray, plane: np.ndarray, fit: np.ndarray, cam: Camera) -> np.ndarray:
+    """(h,) the road's bends off the quadratic profile (a dip before a junction, a crest): per
+    row, the median ratio of the car's own lane ahead (within LANE_HALF of the camera's line:
+    carriageway, not the pavements that pull the wide median) within PROFILE_FOLLOW of the
+    fit, its offset smoothed over PROFILE_ROWS rows (a road bends over metres, never row by
+    row); 0 where no row has support. ``cam``: the working camera."""
+    h, w = disp.shape
+    cols = np.arange(w)
+    rows, off = [], []
+    for r in range(h):
+        p = plane[r, int(round(cam.u0))] if 0 <= cam.u0 < w else plane[r, w // 2]
+        if p <= 1.0:
+            continue
+        half = LANE_HALF * p * fit[r] / cam.baseline  # pixels: LANE_HALF at the ground's depth
+        lane = np.abs(cols - cam.u0) < half
+        rr = disp[r, lane] / plane[r, lane]
+        near = np.isfinite(rr) & (np.abs(rr / fit[r] - 1) < PROFILE_FOLLOW)
+        if near.sum() < max(5, 0.3 * lane.sum()):
+            continue
+        rows.append(r)
+        off.append(float(np.median(rr[near])) - fit[r])
+    if len(rows) < PROFILE_ROWS:
+        return np.zeros(h)
+    off = np.array(off)
+    k = PROFILE_ROWS // 2
+    med = np.array([np.median(off[max(0, i - k):i + k + 1]) for i in range(len(off))])
+    mean = np.convolve(np.pad(med, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), mode="valid")
+    return np.interp(np.arange(h), rows, mean, left=0.0, right=0.0)
 
 
 def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) -> Surfaces:
@@ -129,7 +178,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     sub = replace(camera, fx=camera.fx * SCALE, fy=camera.fy * SCALE, u0=camera.u0 * SCALE,
                   v0=camera.v0 * SCALE, width=w, height=h)
     plane = plane_disparity(sub, np.arange(h), w)
-    ratio = _profile(disp, plane)
+    ratio = _profile(disp, plane, sub)
     ground_d = plane * ratio[:, None]
     with np.errstate(invalid="ignore", divide="ignore"):
         height = camera.z * (1.0 - ground_d / disp)
@@ -162,14 +211,16 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
     green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
                                                           | (lab[..., 2] >= b_road + GRASS_YELLOW))
-    road = _road(level & ~green, seed & ~green, lab)
+    lane = _lane(level & ~green, seed & ~green, z, sub)
+    models = _road_models(lab, seed & ~green, lane)
+    road = _road(level & ~green, (seed | lane) & ~green, lab, models)
     # level ground with road on both sides along its row is the road's (lane markings, patches)
     road |= level & ~road & _between(road, ENCLOSED_PX)
     # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
     foot = _object_foot(smooth, z, sub.fy)
     side = raised & ~green & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
-        side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, seed)
+        side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, models)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
@@ -254,22 +305,63 @@ def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
     return level & (z >= 6) & (z <= 15) & (np.abs(cols - w / 2) < 0.15 * w)
 
 
-def _road_coloured(lab: np.ndarray, seed: np.ndarray, limit: float = 3.0) -> np.ndarray:
-    """Pixels within ``limit`` robust spreads of the colour of the road in front of the car."""
-    if seed.sum() < 100:
-        return np.zeros(lab.shape[:2], bool)
-    ref = lab[seed]
-    med = np.median(ref, axis=0)
-    spread = np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), [10.0, 4.0, 4.0])
-    return np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < limit
-
-
-def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray) -> np.ndarray:
-    """The level pixels of the road's colour connected to the ground in front of the car."""
+def _lane(level: np.ndarray, seed: np.ndarray, z: np.ndarray, cam: Camera) -> np.ndarray:
+    """The car's own lane ahead: level pixels within LANE_HALF of the camera's line, 4 m to
+    LANE_REACH ahead, continuous in height with the seed (a cast shadow changes the light, not
+    the ground's height, so the lane runs on through it). ``cam``: the working camera."""
     h, w = level.shape
+    u = np.arange(w)[None, :]
+    with np.errstate(invalid="ignore"):
+        lane = level & (np.abs((u - cam.u0) * z / cam.fx) < LANE_HALF) & (z >= 4) & (z <= LANE_REACH)
+    joined = cv2.morphologyEx(lane.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    n, comp = cv2.connectedComponents(joined, connectivity=4)
+    keep = np.zeros(n, bool)
+    keep[np.unique(comp[seed & lane])] = True
+    keep[0] = False
+    return keep[comp] & lane
+
+
+def _model(ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(median, robust spread) of (N, 3) LAB colours."""
+    med = np.median(ref, axis=0)
+    return med, np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), SPREAD_FLOOR)
+
+
+def _road_models(lab: np.ndarray, seed: np.ndarray, lane: np.ndarray) -> list:
+    """Colour models of the road: the ground in front of the car and, where the lane ahead
+    runs on into another light (sunlit beyond a cast shadow, or shadowed beyond sun: the same
+    asphalt, its colour scaled by the shadow's ratio per channel), a model of that light from
+    the lane's pixels there (at most two more)."""
     if seed.sum() < 100:
+        return []
+    models = [_model(lab[seed])]
+    rows = np.nonzero(lane.any(axis=1))[0]
+    for _ in range(2):
+        off = lane & ~_road_coloured(lab, models)
+        n_lane, n_off = lane[rows].sum(axis=1), off[rows].sum(axis=1)
+        band = rows[(n_off >= LANE_BAND_SHARE * n_lane) & (n_off >= 3)]
+        pick = np.zeros_like(lane)
+        pick[band] = off[band]
+        if pick.sum() < max(30, LANE_MODE_SHARE * lane.size):
+            break
+        models.append(_model(lab[pick]))
+    return models
+
+
+def _road_coloured(lab: np.ndarray, models: list, limit: float = 3.0) -> np.ndarray:
+    """Pixels within ``limit`` robust spreads of one of the road's colour models."""
+    out = np.zeros(lab.shape[:2], bool)
+    for med, spread in models:
+        out |= np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < limit
+    return out
+
+
+def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray, models: list) -> np.ndarray:
+    """The level pixels of the road's colours connected to the ground in front of the car."""
+    h, w = level.shape
+    if not models:
         return np.zeros((h, w), bool)
-    road = level & _road_coloured(lab, seed)
+    road = level & _road_coloured(lab, models)
     road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     road = cv2.morphologyEx(road, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)).astype(bool) & level
     n, comp = cv2.connectedComponents(road.astype(np.uint8), connectivity=4)

@@ -290,3 +290,5 @@ PEOPLE_FLAT_DEG = 2.0  # a flat foot's tilt
 #: puffy sleeve presses on a puffy jacket's side (measured up to 0.036); an arm through the body
 #: puts a quarter or more inside (test_an_arm_through_the_torso_is_caught)
 PEOPLE_ARM_INSIDE_MAX = 0.05
+ROAD_BEYOND_SHADOW_MIN = 0.8  # sunny generated street: share of the sunlit road beyond a cast shadow found as road
+SIDEWALK_FOUND_PRECISION_SUNNY_MIN = 0.95  # sunny generated street: what is called sidewalk is sidewalk
