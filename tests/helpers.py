@@ -32,10 +32,11 @@ def write_manifest(path: Path, dataset: Path, output: Path, seed: int = 5, **ext
 
 
 def box_manifest(path: Path, dataset: Path, output: Path, **extra) -> Path:
-    """A manifest with one built-in box as a car per image set, placed 5-30 m away (small frames)."""
+    """A manifest with one built-in box as a car per image set (a 1.8 m cube: as wide as a car, so
+    that a lane holds it), placed 5-30 m away (small frames)."""
     return write_manifest(path, dataset, output, **{
         "objects_per_image": 1, "objects": [{"name": "box", "model": "builtin:box", "class": "car",
-                                             "size": {"length": 4.0}}],
+                                             "size": {"length": 1.8}}],
         "placement": {"distance": [5, 30]}, **extra})
 
 
