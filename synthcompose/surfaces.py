@@ -29,10 +29,10 @@ import cv2
 import numpy as np
 
 from .camera import Camera
+from .fileio import decode_disparity
 from .geometry import nearest_in_row
 from .labels import label_id
 from .placement.noise import measure_sigma
-from .fileio import decode_disparity
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
 #: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)

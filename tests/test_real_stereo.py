@@ -18,6 +18,7 @@ from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, check_pose, frame_noise, place_object
 from synthcompose.placement.noise import SIGMA_MIN, StereoNoise, measure_sigma
 from synthcompose.surfaces import find_surfaces, frame_for
+from synthcompose.synthetic import random_scene, render_scene
 
 from .helpers import SIZES
 from .real_root import REAL, needs_real
@@ -34,7 +35,6 @@ from .tolerances import (
 )
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
-from synthcompose.synthetic import random_scene, render_scene
 
 
 def sgm_like(disparity_png: np.ndarray, sigma_px: float, seed: int) -> np.ndarray:

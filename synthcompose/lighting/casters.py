@@ -89,7 +89,6 @@ def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
     flat = ix * ny + iy
     count = np.bincount(flat, minlength=nx * ny)
     total = np.bincount(flat, weights=rel, minlength=nx * ny)
-    zsum = np.bincount(flat, weights=gp[:, 2], minlength=nx * ny)
     plan = np.where(count > 0, total / np.maximum(count, 1), np.nan).astype(np.float32)
     # ground height under everything: the nearest ground seen, on a coarser plan
     k = 5

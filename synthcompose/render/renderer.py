@@ -13,14 +13,13 @@ import numpy as np
 from ..camera import Camera
 from ..gl import GLContext
 from ..models import Model
+from .bands import copy_rows, row_bands, viewport, with_apron
 from .gpu_model import GpuModel, GroundPlane
 from .lit import LitDraw, bind_inputs, environment, frame_uniforms
-from .bands import copy_rows, row_bands, viewport, with_apron
 from .shading import PRECISIONS, SHADING, FillPrograms, PerPixel, PerSample, device_shading, framebuffer
 from .shadows import ShadowMaps, light_matrices
 from .transforms import gl_mat4
 from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_camera, roi_for
-
 
 #: the lit passes' resolved textures: (name, components), all float32; Ir last
 PASSES = (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4), ("ir", 4))

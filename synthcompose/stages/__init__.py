@@ -8,5 +8,6 @@ from .prepare import PhotoLight, Prepared, image_set_rng, measure_light, prepare
 from .shade import ObjectLook, Shaded, ground_albedo, shade
 from .write import Outcome, object_records, write_done, write_skipped
 
-__all__ = ["ObjectLook", "Outcome", "PhotoLight", "Placed", "PlacedObject", "Prepared", "measure_light", "Shaded", "ground_albedo", "image_set_rng",
-           "new_instance_id", "object_records", "place", "prepare", "shade", "write_done", "write_skipped"]
+__all__ = ["ObjectLook", "Outcome", "PhotoLight", "Placed", "PlacedObject", "Prepared", "measure_light", "Shaded",
+           "ground_albedo", "image_set_rng", "new_instance_id", "object_records", "place", "prepare", "shade", "write_done",
+           "write_skipped"]

@@ -23,7 +23,7 @@ from ..manifest import Manifest
 from ..placement import GROUND_LEVEL, Placement
 from ..placement.noise import K_SIGMA
 from ..record import ImageSetRecord
-from ..render import RenderObject, Renderer, amodal_boxes, roi_for
+from ..render import Renderer, RenderObject, amodal_boxes, roi_for
 from .place import Placed
 from .prepare import PhotoLight, Prepared
 from .right import shade_right

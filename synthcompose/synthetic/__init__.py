@@ -36,6 +36,7 @@ from .writing import make_sample, write_image_set
 
 __all__ = [
     "HOLE_FRACTION", "MAX_CAMBER", "MAX_HEADING_DEG", "MAX_SLOPE", "PHOTO_MODES", "TEXTURES", "Box", "Pole",
-    "SceneLight", "STEREO_MODES", "STREET_KINDS", "StreetKind", "StreetScene", "camera_look", "make_sample", "random_camera", "random_scene",
+    "SceneLight", "STEREO_MODES", "STREET_KINDS", "StreetKind", "StreetScene", "camera_look", "make_sample", "random_camera",
+    "random_scene",
     "render_scene", "render_scene_sunlit", "sgm_disparity", "write_image_set",
 ]
