@@ -28,13 +28,14 @@ sys.path.insert(0, str(REPO))
 
 from synthcompose import look  # noqa: E402
 from synthcompose.batch import run_batch  # noqa: E402
-from synthcompose.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
+from synthcompose.dataset import labelled_twin, read_image_set  # noqa: E402
 from synthcompose.fileio import decode_rle, write_png  # noqa: E402
 from synthcompose.geometry import disparity_to_depth  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
+from eval_real import done_outputs  # noqa: E402
 from eval_real import write_manifest as demo_manifest  # noqa: E402
 
 CAR = label_id("car")
@@ -56,14 +57,7 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, car_weight: f
 def measure(root: Path, out: Path, truth: Path | None, views: Path | None, tag: str) -> dict:
     """Figures of one batch's outputs under ``out`` (inputs under ``root``)."""
     cars, shadows, contacts, lights = [], [], [], []
-    for ident in find_image_sets(out):
-        rec_path = ident.path(out, "record")
-        if not rec_path.is_file():
-            continue
-        rec = json.loads(rec_path.read_text())
-        if rec.get("status") != "done":
-            continue
-        src, res = read_image_set(root, ident), read_image_set(out, ident)
+    for ident, rec, src, res in done_outputs(root, out):
         twin = labelled_twin(truth, ident) if truth is not None and not src.labelled else None
         ref = read_image_set(truth, twin) if twin is not None else (src if src.labelled else None)
         lights.append((ident.key, rec.get("lighting", {})))

@@ -55,6 +55,18 @@ def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path)
     return path
 
 
+def done_outputs(root: Path, out: Path):
+    """(ident, record, input image set, output image set) of every image set done under ``out``."""
+    for ident in find_image_sets(out):
+        rec_path = ident.path(out, "record")
+        if not rec_path.is_file():
+            continue
+        rec = json.loads(rec_path.read_text())
+        if rec.get("status") != "done":
+            continue
+        yield ident, rec, read_image_set(root, ident), read_image_set(out, ident)
+
+
 def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None:
     """Pixels whose label or instance id differs between input and output outside the inserted
     objects' visible masks, over the done sets of a labelled root (None for unlabelled roots).

@@ -34,11 +34,12 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 from eval_look import GROUND, write_manifest  # noqa: E402
+from eval_real import done_outputs  # noqa: E402
 
 from evaluation import shadowlook  # noqa: E402
 from synthcompose import look  # noqa: E402
 from synthcompose.batch import run_batch  # noqa: E402
-from synthcompose.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
+from synthcompose.dataset import labelled_twin, read_image_set  # noqa: E402
 from synthcompose.fileio import decode_rle  # noqa: E402
 from synthcompose.geometry import disparity_to_depth  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
@@ -59,14 +60,7 @@ def _frame_key(name: str) -> str:
 def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None) -> tuple[list, list, list]:
     """(frames, inserted cars, real cars) of one batch's outputs under ``out``."""
     frames, cars, real = [], [], []
-    for ident in find_image_sets(out):
-        rec_path = ident.path(out, "record")
-        if not rec_path.is_file():
-            continue
-        rec = json.loads(rec_path.read_text())
-        if rec.get("status") != "done":
-            continue
-        src, res = read_image_set(root, ident), read_image_set(out, ident)
+    for ident, rec, src, res in done_outputs(root, out):
         depth = disparity_to_depth(src.disparity, src.camera)
         frame, _ = frame_for(src, depth)
         lab = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, depth, src.camera)
