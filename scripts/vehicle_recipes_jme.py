@@ -154,9 +154,12 @@ def wheel_image(atlas: np.ndarray) -> np.ndarray:
     return (atlas[round(v0 * h):round(v1 * h), round(u0 * w):round(u1 * w)] * 255).round().astype(np.uint8)
 
 
-def make_hatchback(b: Build):
+def make_hatchback(b: Build, shift=None):
+    """The compact; ``shift`` (vertices -> how far back each moves, model units) lengthens it."""
     body, atlas, material = hatch_mesh(b)
     roles = hatch_roles(body, atlas, material)
+    if shift is not None:
+        body.vertices[:, 0] -= shift(body.vertices)
     parts = merge(split(body, roles), hatch_wheels())
     parts = add_plates(parts, [(1, 0.2), (-1, 0.53)])
     parts, lamp = lamp_part(parts, atlas)
@@ -184,16 +187,7 @@ def estate_shift(v: np.ndarray) -> np.ndarray:
 
 
 def make_estate(b: Build):
-    body, atlas, material = hatch_mesh(b)
-    roles = hatch_roles(body, atlas, material)
-    body.vertices[:, 0] -= estate_shift(body.vertices)
-    parts = merge(split(body, roles), hatch_wheels())
-    parts = add_plates(parts, [(1, 0.2), (-1, 0.53)])
-    parts, lamp = lamp_part(parts, atlas)
-    b.notes.append("tyres (surfaces of revolution, 205/55 R16 at the model's scale) and the wheels' faces (the "
-                   "source's alloy-wheel image of its body atlas) made by the script at the axle positions of "
-                   "HatchBack.java; the source's wheel.j3o (a 178-triangle disc) not used")
-    return finish(parts), {"textured.wheel": wheel_image(atlas), "textured.lamp": lamp}, WHEEL_FACTOR
+    return make_hatchback(b, shift=estate_shift)
 
 
 JME_RECIPES = {
