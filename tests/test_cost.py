@@ -97,7 +97,7 @@ def _board(name: str, quads) -> "Model":  # noqa: F821 (imported inside: GL-free
 def _render_passes(gl, model, names=("irpv", "ir", "alpha", "odepth", "plane", "objc", "id", "id_depth"), **kw):
     from synthcompose.render import Lighting, Renderer, RenderObject
 
-    from .test_geometry import make_camera
+    from .helpers import make_camera
 
     renderer = Renderer(gl, shading="pixel")
     pose = np.eye(4)
@@ -141,19 +141,28 @@ def test_banded_render_keeps_coverage_and_ids_and_the_shading_to_rounding(gl_cle
         assert np.quantile(diff, 0.999) <= 1e-3 and diff.max() <= 0.5, (name, diff.max())
 
 
+def _random_passes(gl, rng, alpha):
+    """The compose tests' passes of random colours over coverage ``alpha`` (test_compose's
+    frame size), with the object's colour and coverage layer."""
+    from .test_compose import H, W, _passes
+
+    passes = _passes(gl, rng.random((H, W, 3), np.float32), rng.random((H, W, 3), np.float32), alpha,
+                     (alpha > 0.5).astype(np.uint32))
+    passes.textures["objc"] = gl.texture((W, H), 4, np.dstack([rng.random((H, W, 3)), alpha]).astype(np.float32),
+                                         dtype="f4")
+    return passes
+
+
 def test_right_view_compose_gives_the_colour_of_the_full_one(gl_clean):
     from synthcompose.compose import Composer
     from synthcompose.lighting import CameraMatch
 
-    from .test_compose import H, W, _passes, _scene
+    from .test_compose import H, W, _scene
 
     rng = np.random.default_rng(9)
     alpha = rng.random((H, W)).astype(np.float32)
     alpha[:, : W // 2] = 0.0
-    passes = _passes(gl_clean, rng.random((H, W, 3), np.float32), rng.random((H, W, 3), np.float32), alpha,
-                     (alpha > 0.5).astype(np.uint32))
-    passes.textures["objc"] = gl_clean.texture((W, H), 4, np.dstack([rng.random((H, W, 3)), alpha]).astype(np.float32),
-                                               dtype="f4")
+    passes = _random_passes(gl_clean, rng, alpha)
     scene = _scene(rng, np.inf)
     comp = Composer(gl_clean)
     for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
@@ -168,15 +177,12 @@ def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
     from synthcompose.lighting import CameraMatch
     from synthcompose.render import bands
 
-    from .test_compose import H, W, _passes, _scene
+    from .test_compose import H, W, _scene
 
     rng = np.random.default_rng(4)
     alpha = rng.random((H, W)).astype(np.float32)
     alpha[rng.random((H, W)) < 0.5] = 0.0
-    passes = _passes(gl_clean, rng.random((H, W, 3), np.float32), rng.random((H, W, 3), np.float32), alpha,
-                     (alpha > 0.5).astype(np.uint32))
-    passes.textures["objc"] = gl_clean.texture((W, H), 4, np.dstack([rng.random((H, W, 3)), alpha]).astype(np.float32),
-                                               dtype="f4")
+    passes = _random_passes(gl_clean, rng, alpha)
     scene = _scene(rng, np.inf)
     comp = Composer(gl_clean)
     for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
