@@ -201,6 +201,26 @@ layout(location = 3) out uint out_disparity;
 layout(location = 4) out uint out_visible;   // object index where it is seen, else 0
 #endif
 
+// The 8-bit output level of a pixel (sRGB [0, 1]): the photo's own level where the composite
+// keeps it (within 1/50 of a level), else the composite's level rounded up or down at random
+// with the odds of its fraction (unbiased). Plain rounding to the nearest level turns a smooth
+// darkening into bands of whole levels whose borders run as sharp lines along the shadow's
+// iso-lines (on a dark road one level is 3 % of its light): where the inserted shadow fades
+// out, the last level ends in one straight step around the car. Rounded at random, the levels
+// mix over the fade as a real photo's noise does, and no border is left. The random number is
+// a hash of the pixel: the same output from the same input on any machine.
+uint pcg_hash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+vec3 quantize(vec3 srgb, vec3 photo, ivec2 p) {
+    vec3 levels = (srgb - photo) * 255.0;
+    if (all(lessThan(abs(levels), vec3(0.02)))) return photo;
+    float u = float(pcg_hash(uint(p.x) + pcg_hash(uint(p.y))) >> 8u) / 16777216.0;
+    return clamp(photo + floor(levels + u) / 255.0, 0.0, 1.0);
+}
+
 // Variants (compose.Composer): BLUR when the object layer is blurred (u_blur_radius > 0: the
 // composite comes from the LAYERS pass's layers, not from this pixel's fetch); RGB_ONLY for a
 // view whose labels are not written (the right view of a stereo pair): the colour alone.
@@ -230,7 +250,7 @@ void main() {
         float share = sqrt(max(1.0 - (1.0 - cover) * (1.0 - cover), 0.0));
         srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p, 0).rgb * share, 0.0, 1.0);
     }
-    out_rgb = vec4(srgb, 1.0);
+    out_rgb = vec4(quantize(srgb, texelFetch(u_photo, p, 0).rgb, p), 1.0);
 #if !defined RGB_ONLY
     uint label = texelFetch(u_labels, p, 0).r;
     uint raw = texelFetch(u_id, p, 0).r;
