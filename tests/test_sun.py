@@ -118,10 +118,6 @@ def test_the_sun_shadows_penumbra_grows_away_from_the_caster(gl):
     assert widths[1] >= PENUMBRA_GROWTH_MIN * max(widths[0], 1), widths
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the generator's sunny streets cast their shadow edges on the kerbs' faces, not on level road "
-    "3-20 m ahead, which the ground plan (rightly) leaves out since it keeps non-level ground off; "
-    "the real street frames are called sunny 12/13 (tests/test_real_sun.py). Open: issue 29"))
 def test_a_sunny_generated_street_is_called_sunny_along_its_sun_and_an_overcast_one_not(tmp_path):
     sunny = make_sample(tmp_path / "sunny", count=1, width=1024, height=512, seed=3, light="sunny")[0]
     overcast = make_sample(tmp_path / "overcast", count=1, width=1024, height=512, seed=3)[0]

@@ -13,6 +13,7 @@ from .layout import random_scene
 from .light import sunny_light
 from .scene import StreetScene
 from .streets import STREET_KINDS
+from .sunlit import open_to_the_sun
 
 #: the light of the frames :func:`make_sample` writes: the default shading (an overcast day),
 #: or a sunny day (:func:`~.light.sunny_light`: a sun with cast shadows and their penumbra)
@@ -60,7 +61,8 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
     Cityscapes' camera records it, ``"clean"`` the shading as it is (see :func:`render_scene`);
     ``right``: the right view of the stereo pair too (rightImg8bit); ``light``: one of
     :data:`LIGHTS` (a sunny frame's light is drawn from its own generator, ``[seed, i, 1]``: the
-    layout is the same as the default's). ``streets``: None draws the streets as earlier
+    layout is the same as the default's but for a gap in the houses on the sun's side,
+    :func:`~.sunlit.open_to_the_sun`, drawn from ``[seed, i, 2]``). ``streets``: None draws the streets as earlier
     versions; ``"traffic"`` lays frame i out as street kind ``i mod 5`` of
     :data:`.streets.STREET_KINDS` (two-way, one-way, angled and perpendicular bays, a zebra).
 
@@ -79,6 +81,8 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
         sun = sunny_light(np.random.default_rng([seed, i, 1])) if light == "sunny" else None
         kind = None if streets is None else STREET_KINDS[i % len(STREET_KINDS)]
         scene = random_scene(np.random.default_rng([seed, i]), width, height, light=sun, street=kind)
+        if sun is not None:  # the sun comes in through a gap in the houses (its own numbers)
+            scene = open_to_the_sun(scene, np.random.default_rng([seed, i, 2]))
         ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
         write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo, right=right))
         idents.append(ident)
