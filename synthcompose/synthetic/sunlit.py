@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from .scene import Box, StreetScene
+from .scene import StreetScene
 
 #: where the lit patch crosses the centre line (metres ahead, street frame a) and its length
 #: there (the gap is longer by what the houses beside it hide of an oblique sun)
