@@ -130,3 +130,31 @@ def test_through_an_objects_panes_the_photos_disparity_is_kept_and_the_label_is_
     assert (out["label_ids"] == 26).all() and (out["instance_ids"] == 26000).all()
     assert (out["disparity"][6:14, 6:24] == scene.disparity[6:14, 6:24]).all()  # through the panes
     assert (out["disparity"][18:, :] == written).all()  # the body
+
+
+def test_a_fading_shadow_leaves_no_step_of_a_whole_level(gl_clean):
+    """A darkening that fades out to nothing across the region, on a dark road (8-bit 60: one
+    level is 3.6 % of its light): each column's mean output follows the darkening (no bias),
+    the columns between two levels mix both (rounded at random, not at one threshold: no
+    straight step where the fade crosses half a level), and the photo is kept where the
+    darkening is nil."""
+    rng = np.random.default_rng(11)
+    scene = _scene(rng, np.inf)
+    photo = np.full((H, W, 3), 60, np.uint8)
+    scene = SceneLayers(photo, scene.label_ids, scene.instance_ids, scene.disparity, scene.depth, scene.disparity_scale)
+    fade = np.clip(np.linspace(0.05, -0.01, W), 0.0, None).astype(np.float32)  # nil in the last columns
+    lin = ((60 / 255.0 + 0.055) / 1.055) ** 2.4
+    ir = np.full((H, W, 3), lin, np.float32)  # the plane reproduces the photo: R' = R * Irpv / Ir
+    irpv = ir * (1.0 - fade)[None, :, None]
+    zero = np.zeros((H, W), np.float32)
+    out = Composer(gl_clean).compose_roi(_passes(gl_clean, irpv, ir, zero, zero), scene, [26], [26000])["rgb"]
+    exact = reference_compose(photo, irpv, ir, zero).astype(np.float64)  # rounded to the nearest level
+    want = [((lin * (1 - f)) ** (1 / 2.4) * 1.055 - 0.055) * 255 - 60 for f in fade]  # levels, exact
+    got = out[..., 1].astype(np.float64).mean(axis=0) - 60
+    assert np.abs(got - np.array(want)).max() < 0.35, np.round(got - want, 2)
+    between = [c for c, w in enumerate(want) if 0.2 < (-w) % 1.0 < 0.8]
+    assert len(between) >= 8
+    for c in between:  # both neighbouring levels appear in the column
+        assert len(np.unique(out[:, c, 1])) >= 2, (c, want[c])
+    nil = fade == 0.0
+    assert (out[:, nil] == photo[:, nil]).all() and (exact[:, nil] == 60).all()
