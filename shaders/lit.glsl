@@ -75,6 +75,8 @@ uniform vec2 u_plane_half;      // this ground plane's half sizes, metres (PLANE
 uniform float u_plane_fade;     // its darkening fades out over this many metres to its edges
 uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
 const float GROUND_SKY_BLUR = 0.25;  // metres
+const float GROUND_SKY_PIXELS = 3.0;  // and at least this many pixels' footprint (ground_sky())
+const float PLANE_FADE_PIXELS = 6.0;  // a plane's darkening fades over at least this many pixels
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
@@ -137,6 +139,24 @@ float sun_visibility(vec3 p) {
     for (int i = 0; i < 12; ++i)
         vis += step(s.z - 0.002, texture(u_sun_map, s.xy + m * DISC[i]).r);
     return vis / 13.0;
+}
+
+// The sky the ground at p sees past the objects (ground_sky.glsl), read over a disc of
+// GROUND_SKY_BLUR metres, widened to GROUND_SKY_PIXELS of the pixel's own footprint on the
+// ground along each image axis: a far object's occlusion, a few rows deep, fades over as many
+// pixels as a near one's rather than in one step at its bumper's line.
+float ground_sky(vec3 p) {
+    vec2 g = (u_sky_matrix * vec4(p, 1.0)).xy;
+    vec2 a = GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdx(p)).xy;
+    vec2 b = GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdy(p)).xy;
+    float r = GROUND_SKY_BLUR / u_map_metres;
+    mat2 cov = mat2(r * r) + outerProduct(a, a) + outerProduct(b, b);
+    float sq = sqrt(max(determinant(cov), 0.0));
+    mat2 m = (cov + mat2(sq)) / sqrt(max(cov[0][0] + cov[1][1] + 2.0 * sq, 1e-20));
+    float open = texture(u_ground_sky, g).r;
+    for (int i = 0; i < 12; ++i)
+        open += texture(u_ground_sky, g + m * DISC[i]).r;
+    return open / 13.0;
 }
 
 float contact_occlusion(vec3 p) {
@@ -228,15 +248,13 @@ void main() {
     float sky_vis = 1.0;
 #else
     // the objects' darkening fades out before the plane's edges: no outline of the receiver
+    // (over u_plane_fade metres, and at least PLANE_FADE_PIXELS of the pixel's footprint: on a
+    // far plane 0.3 m is two rows, and the fade a step)
     vec2 edge = (1.0 - abs(v_local)) * u_plane_half;
-    float fade = smoothstep(0.0, u_plane_fade, min(edge.x, edge.y));
+    float to_edge = min(edge.x, edge.y);
+    float fade = smoothstep(0.0, max(u_plane_fade, PLANE_FADE_PIXELS * fwidth(to_edge)), to_edge);
     float sun_vis = mix(1.0, sun_visibility(v_world), fade);
-    // the ground's sky (ground_sky.glsl), read over a disc of GROUND_SKY_BLUR metres
-    vec2 g = (u_sky_matrix * vec4(v_world, 1.0)).xy;
-    float open = texture(u_ground_sky, g).r;
-    for (int i = 0; i < 12; ++i)
-        open += texture(u_ground_sky, g + DISC[i] * (GROUND_SKY_BLUR / u_map_metres)).r;
-    open /= 13.0;
+    float open = ground_sky(v_world);
     float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
 #endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
