@@ -56,9 +56,7 @@ STRIDE = 2
 def candidates(frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> "_Candidates":
     """The frame's candidate pixels for one surface and distance range (cached on the frame)."""
     key = ("candidates", tuple(int(i) for i in allowed_ids), tuple(float(d) for d in distance))
-    if key not in frame.cache:
-        frame.cache[key] = _Candidates(frame, allowed_ids, distance)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _Candidates(frame, allowed_ids, distance))
 
 
 class _Candidates:

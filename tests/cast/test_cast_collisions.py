@@ -11,8 +11,10 @@ from scipy.spatial import ConvexHull
 from synthcompose.manifest import parse_manifest
 from synthcompose.placement.boxes import footprint_corners
 from synthcompose.placement.frequency import object_weights
+from synthcompose.stages.options import StageOptions
 from synthcompose.stages.place import place
 from synthcompose.stages.prepare import prepare
+from synthcompose.stages.timing import Timings
 from synthcompose.synthetic import make_sample
 
 W, H = 1024, 512
@@ -58,7 +60,8 @@ def placed_sets(tmp_path_factory):
                            work / "m.json")
         weights = object_weights([o.weight for o in m.objects], [], "weights")
         for ident in ids:
-            placed = place(m, weights, prepare(m, ident, {}), {})
+            o = StageOptions.of(m)
+            placed = place(o.place, weights, prepare(o.read, ident, Timings()), Timings())
             out.append((m, placed))
     return out
 
