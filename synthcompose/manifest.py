@@ -136,7 +136,7 @@ class ObjectSpec:
     weight: float
     allowed_surfaces: tuple[str, ...]  # the class's default when the manifest gives none
     orientation: str  # likewise
-    appearance: str = "varied"  # "varied": paint / clothes drawn per object (appearance.py); "model": as modelled
+    appearance: str = "varied"  # "varied": paint / clothes drawn per object (look/appearance.py); "model": as modelled
     cast: tuple[CastEntry, ...] = ()  # a cast pool: the entries each object of it is drawn from (cast/draw.py)
 
 

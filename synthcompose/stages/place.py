@@ -106,7 +106,7 @@ class Placed:
 
 
 def saved_spec(objects: tuple[ObjectSpec, ...], saved: SavedPlacement, k: int) -> ObjectSpec:
-    """The manifest object a saved placement names (saved_poses.py)."""
+    """The manifest object a saved placement names (placement/saved_poses.py)."""
     name = saved.objects[k].name
     for spec in objects:
         if spec.name == name:

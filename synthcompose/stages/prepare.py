@@ -34,7 +34,7 @@ class Prepared:
     camera_json: bytes
     depth: np.ndarray  # (H, W) float32 metres, inf where unknown
     frame: Frame
-    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (surfaces.py)
+    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (placement/surfaces.py)
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
 
 
