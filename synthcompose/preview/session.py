@@ -1,7 +1,7 @@
 """The preview's session: what ``synthcompose preview`` shows, without any window (headless, testable).
 
 A :class:`PreviewSession` runs the batch's own stages (:mod:`synthcompose.stages`: prepare,
-place, shade, with the GL context of a :class:`~synthcompose.pipeline.Pipeline`) on one image
+place, shade, with the GL context of a :class:`~synthcompose.run.pipeline.Pipeline`) on one image
 set, up to the compose (nothing is written), keeps the results as a :class:`View`, and turns them into the
 images of each pass (:meth:`PreviewSession.pass_image`, depth as turbo colours), a PLY file
 (:mod:`.export`), and saved placements. Every shown pose is checked against the batch's placement
@@ -15,18 +15,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Mapping
 
 import cv2
 import numpy as np
 
-from ..colour import linear_to_srgb
-from ..dataset import ImageSetId
-from ..errors import SynthComposeError
-from ..geometry import Frame
-from ..labels import COLOR_LUT
-from ..manifest import Manifest
-from ..placement import Placement, Rejection, check_pose
-from ..saved_poses import (
+from synthcompose.colour import linear_to_srgb
+from synthcompose.errors import SynthComposeError
+from synthcompose.geometry.depth import Frame
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.labels import COLOR_LUT
+from synthcompose.manifest import Manifest
+from synthcompose.placement import Placement, Rejection, check_pose
+from synthcompose.placement.saved_poses import (
     IGNORE_SAVED,
     SavedObject,
     SavedPlacement,
@@ -35,7 +36,9 @@ from ..saved_poses import (
     read_saved,
     write_saved,
 )
-from ..stages import measure_light, place, prepare, shade
+from synthcompose.stages import NotPlaced, StageOptions, measure_light, place, prepare, shade
+from synthcompose.stages.timing import Timings
+
 from .export import export_ply
 
 #: the passes the preview shows, in key order (1..9)
@@ -111,10 +114,10 @@ class View:
     rgb: np.ndarray  # (H, W, 3) uint8, the input photo
     frame: Frame
     objects: list[PlacedObject]
-    failures: list[dict]
+    failures: list[NotPlaced]
     trace: list  # (candidate point in V, rejection reason)
     source: str  # "random", "saved" or "moved"
-    passes: dict[str, np.ndarray] = field(default_factory=dict)  # ROI-sized, as RenderPasses.read gives
+    passes: Mapping[str, np.ndarray] = field(default_factory=dict)  # ROI-sized, as RenderPasses.read gives
     roi: tuple[int, int, int, int] | None = None  # x0, y0, width, height
     composed_rgb: np.ndarray | None = None
     composed_labels: np.ndarray | None = None
@@ -154,8 +157,8 @@ class PreviewSession:
     """One manifest's image sets through the batch's pipeline, one at a time, for viewing."""
 
     def __init__(self, manifest: Manifest, frame: str | None = None, gl=None, gl_backend: str | None = None) -> None:
-        from ..batch import select
-        from ..pipeline import Pipeline
+        from synthcompose.run.batch import select
+        from synthcompose.run.pipeline import Pipeline
 
         self.base = manifest
         self.ids, weights, _ = select(manifest)
@@ -165,7 +168,7 @@ class PreviewSession:
         if frame is not None:
             names = [i.name for i in self.ids]
             if frame not in names:
-                from ..selection import near
+                from synthcompose.run.selection import near
 
                 raise SynthComposeError(f"frame {frame!r} is not among the manifest's image sets "
                                         f"({', '.join(names[:5])}{', ...' if len(names) > 5 else ''})"
@@ -192,10 +195,11 @@ class PreviewSession:
         m = replace(self.base, seed=self.base.seed + self.seed_offset, right_view=False)  # the left view is shown
         saved = read_saved(m.output, self.ident) if override is None else \
             (None if override is IGNORE_SAVED else override)
-        prep = prepare(m, self.ident, {})
+        o = StageOptions.of(m)
+        prep = prepare(o.read, self.ident, Timings())
         trace: list = []
-        placed = place(m, p.weights, prep, {}, saved=saved, trace=trace)
-        shaded = shade(p.renderer, p.composer, m, prep, measure_light(m, prep, {}), placed, {},
+        placed = place(o.place, p.weights, prep, Timings(), saved=saved, trace=trace)
+        shaded = shade(p.renderer, p.composer, o.shade, prep, measure_light(o.read, prep, Timings()), placed, Timings(),
                        keep=("irpv", "ir", "alpha", "odepth", "id")) if placed.objects else None
         source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
         objects = [PlacedObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
@@ -326,7 +330,7 @@ class PreviewSession:
         for why, n in sorted(v.reasons.items(), key=lambda kv: -kv[1]):
             lines.append(f"  rgb{cols[why]}  x{n}  {why}")
         for f in v.failures:
-            lines.append(f"  not placed: {f['name']} ({f['reason']}, {f['attempts']} attempts)")
+            lines.append(f"  not placed: {f.name} ({f.reason}, {f.attempts} attempts)")
         return lines
 
     # ------------------------------------------------------------------------------ PLY

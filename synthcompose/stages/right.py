@@ -1,23 +1,24 @@
 """Stages 4-5 for the right view: the objects shaded for the left photo, with the same light,
 ground planes, real shadows, camera tones, blur and noise level, rendered from the right camera
 of the stereo pair and composed into the right photo (:func:`shade_right`). The real scene in
-front of them is the left view's, carried to the right camera (:mod:`synthcompose.right_view`),
+front of them is the left view's, carried to the right camera (:mod:`synthcompose.geometry.right_view`),
 so that the pair stays a stereo pair: an object's pixels lie ``fx * baseline / z`` apart in the
 two photos, the disparity the left view writes for them.
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
-from ..compose import FRONT_LABELS, Composer, SceneLayers, label_mask
-from ..lighting import CameraMatch
-from ..lighting.light import Lighting
-from ..render import Renderer, RenderObject
-from ..render.values import roi_for
-from ..right_view import carry_to_right
+from synthcompose.compose import FRONT_LABELS, Composer, SceneLayers, label_mask
+from synthcompose.geometry.right_view import carry_to_right
+from synthcompose.lighting import CameraMatch
+from synthcompose.lighting.light import Lighting
+from synthcompose.render import Renderer, RenderObject
+from synthcompose.render.values import roi_for
+
 from .prepare import Prepared
 
 
@@ -26,13 +27,27 @@ def right_noise_seed(seed: int) -> int:
     return int(np.random.SeedSequence([int(seed), 1]).generate_state(1, np.uint64)[0] >> 1)
 
 
-def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects: Sequence[RenderObject],
-                lighting: Lighting, sun_mask: np.ndarray | None, scene: SceneLayers, classes: Sequence[int],
-                instances: Sequence[int], match: CameraMatch | None,
-                tones: Sequence[tuple[float, float]] | None) -> np.ndarray:
-    """(H, W, 3) uint8: the right photo with ``objects`` in it (as the left view's ``scene``
-    layers, ``sun_mask``, camera ``match`` and ``tones`` shaded them); unchanged where nothing
-    of them is in the right camera's view."""
+@dataclass(frozen=True, eq=False)
+class LeftShading:
+    """How the left view shaded its objects; the right view shades them the same way."""
+
+    objects: Sequence[RenderObject]
+    lighting: Lighting
+    sun_mask: np.ndarray | None  # where the sun reaches the real ground
+    scene: SceneLayers  # the left frame's layers
+    classes: Sequence[int]  # label id of each object
+    instances: Sequence[int]  # instance id of each object
+    match: CameraMatch | None  # the camera's blur and noise
+    tones: Sequence[tuple[float, float]] | None  # (gain, saturation) of each object
+
+
+def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_shading: LeftShading) -> np.ndarray:
+    """(H, W, 3) uint8: the right photo with the left view's objects in it (shaded as the left
+    view shaded them); unchanged where nothing of them is in the right camera's view."""
+    objects, lighting, sun_mask, scene = (left_shading.objects, left_shading.lighting, left_shading.sun_mask,
+                                          left_shading.scene)
+    classes, instances, match, tones = (left_shading.classes, left_shading.instances, left_shading.match,
+                                        left_shading.tones)
     photo = prep.image_set.right_rgb
     left = prep.image_set.camera
     cam = left.right_camera()

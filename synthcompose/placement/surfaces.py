@@ -1,0 +1,386 @@
+"""Stage 2b - surfaces of a frame without labels (the test split): road and sidewalk from the
+disparity and the photo.
+
+1. **The road's profile.** A camera without roll sees the ground of one image row at one
+   disparity: the ground profile d_g(v). It starts from the camera's own ground plane (z = 0 in
+   V) and is refined row by row by the strongest disparity near it (the road is the widest
+   surface of a street's lower image), then smoothed by a robust low-order fit, so slopes and
+   the pitch of the car are followed; then the road's bends off that quadratic (a dip before a
+   junction, a crest) are followed from the car's own lane ahead, smoothed over metres.
+2. **Heights.** A pixel of disparity d on row v lies h = H (1 - d_g(v) / d) above the ground
+   (H: the camera's height): a kerb's 10-15 cm is a 10 % step in disparity at any depth, well
+   above the matcher's noise. The height map is median-filtered over a few pixels.
+3. **Road**: level pixels (|h| within the noise band at their depth) whose colour is the road's
+   (a robust colour model of the level ground in front of the car) and that connect to it.
+   A cast shadow changes the light, not the ground: the car's own lane ahead, level and
+   continuous in height with the ground in front of the car, is road in whatever light, so
+   where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
+   light's road colour is modelled from it too.
+   **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
+   road. Everything else is 0 (unlabelled).
+
+Deterministic: the same disparity and photo give the same labels (the checker recomputes them).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from synthcompose.camera import Camera
+from synthcompose.geometry.depth import nearest_in_row
+from synthcompose.io.files import decode_disparity
+from synthcompose.labels import label_id
+
+from .noise import measure_sigma
+
+ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
+#: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
+SCALE = 0.5
+#: sidewalk: raised this much above the road, metres
+KERB_MIN, KERB_MAX = 0.05, 0.35
+#: a walkable surface beside the road that is not raised: the sidewalk too when its colour is not the road's
+LEVEL_SIDEWALK = True
+#: a patch with road this close (working pixels) on both sides along its row lies in the road
+ENCLOSED_PX = 24
+#: level ground: within this height of the road profile (or the noise band), metres
+LEVEL_BAND = 0.05
+#: the road's crown is fitted within this far across from the car, metres
+CROWN_REACH = 3.5
+#: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
+GRASS_SATURATION, GRASS_YELLOW = 18, 5
+#: a sidewalk touches the road within this many working pixels
+TOUCH_PX = 4
+#: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
+FOOT_REACH = 0.6
+#: the car's own lane ahead: within this far left or right of the camera (metres), 4 m to
+#: LANE_REACH ahead, level and continuous from the seed, is carriageway, sunlit or in shadow
+LANE_HALF, LANE_REACH = 1.2, 40.0
+#: the ground profile follows the road's bends: rows within this share of the quadratic
+#: profile's disparity, their offsets smoothed over this many working rows
+PROFILE_FOLLOW, PROFILE_ROWS = 0.06, 11
+#: a second light on the lane (a sunlit band beyond a cast shadow, or the reverse): lane
+#: pixels off the road's colour models on rows where at least LANE_BAND_SHARE of the lane is off
+#: them (a light band spans the lane; paint does not), at least LANE_MODE_SHARE of the frame's
+#: working pixels and 30 pixels (a far patch of sun is few pixels: a count, not a share of the lane)
+LANE_BAND_SHARE, LANE_MODE_SHARE = 0.6, 1e-4
+#: the colour model's least robust spread, LAB
+SPREAD_FLOOR = (10.0, 4.0, 4.0)
+
+
+@dataclass(frozen=True)
+class Surfaces:
+    """Labels found for a frame without labels, and how."""
+
+    labels: np.ndarray  # (H, W) uint8: ROAD, SIDEWALK or 0
+    profile: np.ndarray  # (H,) ground disparity per row (NaN above the horizon)
+    sigma_d: float  # the matcher's noise measured on the level ground, pixels
+
+    def to_dict(self) -> dict:
+        return {"source": "none: road and sidewalk found from the disparity and the photo",
+                "road_share": round(float((self.labels == ROAD).mean()), 4),
+                "sidewalk_share": round(float((self.labels == SIDEWALK).mean()), 4),
+                "sigma_disparity_px": round(self.sigma_d, 4)}
+
+
+def plane_disparity(camera: Camera, rows: np.ndarray, width: int) -> np.ndarray:
+    """(len(rows), width) disparity of the camera's ground plane z = 0 (V) at each pixel (0
+    above the horizon)."""
+    u = np.arange(width, dtype=np.float64)
+    v = np.asarray(rows, np.float64)[:, None]
+    ray_o = np.stack(np.broadcast_arrays((u[None] - camera.u0) / camera.fx, (v - camera.v0) / camera.fy,
+                                         np.ones((len(rows), width))), -1)
+    m = camera.vehicle_from_optical
+    ray_z = ray_o @ m[2, :3]  # height change along the ray per unit optical depth
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(ray_z < -1e-6, -m[2, 3] / ray_z, np.inf)  # optical depth where the ray meets z = 0
+    return np.where(np.isfinite(z), camera.fx * camera.baseline / z, 0.0)
+
+
+def _profile(disp: np.ndarray, plane: np.ndarray, cam: Camera) -> np.ndarray:
+    """(h,) ground disparity per row: per row, the median disparity of the pixels within 12 %
+    of the camera's plane, weighted to the central columns; then a robust quadratic in the
+    row of d_g / d_plane, so slopes and pitch are followed but single rows are not."""
+    h, w = disp.shape
+    centre = np.abs(np.arange(w) - w / 2) < 0.35 * w
+    rows, ratio, weight = [], [], []
+    for r in range(h):
+        p = plane[r, w // 2]
+        if p <= 1.0:
+            continue
+        d = disp[r, centre]
+        pr = plane[r, centre]
+        near = np.isfinite(d) & (np.abs(d / pr - 1) < 0.12)
+        if near.sum() < 0.1 * centre.sum():
+            continue
+        rows.append(r)
+        ratio.append(float(np.median(d[near] / pr[near])))
+        weight.append(float(near.sum()))
+    out = np.full(h, np.nan)
+    if len(rows) < 10:
+        ok = plane[:, w // 2] > 1.0
+        out[ok] = 1.0
+        return out
+    rows, ratio, weight = np.array(rows, float), np.array(ratio), np.sqrt(np.array(weight))
+    keep = np.ones(len(rows), bool)
+    coef = np.array([0.0, 0.0, 1.0])
+    for _ in range(4):
+        coef = np.polyfit(rows[keep] / h, ratio[keep], 2, w=weight[keep])
+        res = ratio - np.polyval(coef, rows / h)
+        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.005)
+    ok = plane[:, w // 2] > 1.0
+    fit = np.polyval(coef, np.arange(h) / h)
+    out[ok] = (fit + _bends(disp, plane, fit, cam))[ok]
+    return out  # ratio to the plane's disparity, per row
+
+
+def _bends(disp: np.ndarray, plane: np.ndarray, fit: np.ndarray, cam: Camera) -> np.ndarray:
+    """(h,) the road's bends off the quadratic profile (a dip before a junction, a crest): per
+    row, the median ratio of the car's own lane ahead (within LANE_HALF of the camera's line:
+    carriageway, not the pavements that pull the wide median) within PROFILE_FOLLOW of the
+    fit, its offset smoothed over PROFILE_ROWS rows (a road bends over metres, never row by
+    row); 0 where no row has support. ``cam``: the working camera."""
+    h, w = disp.shape
+    cols = np.arange(w)
+    rows, off = [], []
+    for r in range(h):
+        p = plane[r, int(round(cam.u0))] if 0 <= cam.u0 < w else plane[r, w // 2]
+        if p <= 1.0:
+            continue
+        half = LANE_HALF * p * fit[r] / cam.baseline  # pixels: LANE_HALF at the ground's depth
+        lane = np.abs(cols - cam.u0) < half
+        rr = disp[r, lane] / plane[r, lane]
+        near = np.isfinite(rr) & (np.abs(rr / fit[r] - 1) < PROFILE_FOLLOW)
+        if near.sum() < max(5, 0.3 * lane.sum()):
+            continue
+        rows.append(r)
+        off.append(float(np.median(rr[near])) - fit[r])
+    if len(rows) < PROFILE_ROWS:
+        return np.zeros(h)
+    off = np.array(off)
+    k = PROFILE_ROWS // 2
+    med = np.array([np.median(off[max(0, i - k):i + k + 1]) for i in range(len(off))])
+    mean = np.convolve(np.pad(med, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), mode="valid")
+    return np.interp(np.arange(h), rows, mean, left=0.0, right=0.0)
+
+
+def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) -> Surfaces:
+    """Road and sidewalk labels of a frame from its Cityscapes disparity (uint16 PNG values)
+    and photo (H, W, 3 uint8 RGB)."""
+    H, W = disparity_png.shape
+    w, h = int(round(W * SCALE)), int(round(H * SCALE))
+    d_full = decode_disparity(disparity_png)
+    d_full[disparity_png <= 1] = np.nan
+    # nearest-neighbour subsampling keeps holes holes and does not blend across borders
+    step = int(round(1 / SCALE))
+    dsub = d_full[::step, ::step][:h, :w]  # full-resolution disparity at the working pixels
+    disp = dsub * SCALE
+    sub = replace(camera, fx=camera.fx * SCALE, fy=camera.fy * SCALE, u0=camera.u0 * SCALE,
+                  v0=camera.v0 * SCALE, width=w, height=h)
+    plane = plane_disparity(sub, np.arange(h), w)
+    ratio = _profile(disp, plane, sub)
+    ground_d = plane * ratio[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        height = camera.z * (1.0 - ground_d / disp)
+    height = np.where(np.isfinite(height) & (ground_d > 0), height, np.nan).astype(np.float32)
+    height -= _tilt(height, dsub, sub, camera.fx * camera.baseline)
+    filled = np.where(np.isnan(height), 10.0, height).astype(np.float32)
+    smooth = cv2.medianBlur(filled, 5)
+    smooth[np.isnan(height)] = np.nan
+    # the matcher's noise on the level ground, and the band it allows at each depth
+    level0 = np.abs(smooth) < LEVEL_BAND
+    sigma = measure_sigma(dsub, level0, step=4, stride=2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = camera.fx * camera.baseline / dsub
+    band = np.maximum(LEVEL_BAND, 3.0 * camera.z * z * sigma / (camera.fx * camera.baseline))
+    level = np.abs(smooth) < band
+    # horizontal, not the face of a car or a wall: a vertical surface climbs by one pixel's
+    # size (z / fy) per row, a horizontal one not at all
+    k = 3
+    climb = np.full((h, w), np.inf, np.float32)
+    climb[k:-k] = np.abs(smooth[2 * k:] - smooth[:-2 * k]) / (2 * k)
+    flat = climb < 0.25 * z / sub.fy + 0.01
+    raised = (smooth >= np.maximum(KERB_MIN, band)) & (smooth <= KERB_MAX) & flat
+    small = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
+    lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
+    hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
+    seed = _seed(level, z)
+    # grass is green against the road: Cityscapes photos are greenish grey all over, so the
+    # test is relative to the saturation of the level ground in front of the car
+    s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
+    b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
+    green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
+                                                          | (lab[..., 2] >= b_road + GRASS_YELLOW))
+    lane = _lane(level & ~green, seed & ~green, z, sub)
+    models = _road_models(lab, seed & ~green, lane)
+    road = _road(level & ~green, (seed | lane) & ~green, lab, models)
+    # level ground with road on both sides along its row is the road's (lane markings, patches)
+    road |= level & ~road & _between(road, ENCLOSED_PX)
+    # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
+    foot = _object_foot(smooth, z, sub.fy)
+    side = raised & ~green & ~road & ~foot
+    if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
+        side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, models)
+    side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
+    # sides along the row (a traffic island's noise, a manhole) are left out
+    side &= ~_between(road, ENCLOSED_PX)
+    # beside the road: touching it (a kerb between them), not across grass or a wall
+    near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
+    n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
+    if n > 1:
+        touches = np.zeros(n, bool)
+        touches[np.unique(comp[near_road & side])] = True
+        sizes = np.bincount(comp.ravel(), minlength=n)
+        touches &= sizes >= 200
+        touches[0] = False
+        side = touches[comp]
+    small_labels = np.zeros((h, w), np.uint8)
+    small_labels[road] = ROAD
+    small_labels[side] = SIDEWALK
+    labels = cv2.resize(small_labels, (W, H), interpolation=cv2.INTER_NEAREST)
+    labels[disparity_png <= 1] = 0
+    return Surfaces(labels, ratio, float(sigma))
+
+
+def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarray:
+    """(h, w) the road's remaining slope across and along the view: a robust plane h = a + b x +
+    c y + d y^2 (x forward, y left, metres: d is the crown of a cambered road, whose middle stands
+    above its gutters) through the near-level pixels, so a cambered or sideways
+    sloping road stays level from kerb to kerb. ``d``: full-resolution disparity at the
+    working pixels of ``cam``; ``fb``: the full-resolution f B."""
+    u = np.arange(height.shape[1])[None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = np.where(np.isfinite(height) & (d > 0), fb / d, np.nan)
+    lateral = -(u - cam.u0) * z / cam.fx
+    # the carriageway around the car only: a kerbside pavement 10-15 cm up must not bend the
+    # crown up to it (it would read as road); beyond CROWN_REACH the crown is held
+    ok = np.isfinite(height) & (np.abs(height) < 0.1) & (z > 4) & (z < 30) & (np.abs(lateral) < CROWN_REACH)
+    if ok.sum() < 500:
+        return np.zeros_like(height)
+    sel = np.flatnonzero(ok.ravel())[:: max(1, int(ok.sum() // 20000))]
+    A = np.column_stack([np.ones(len(sel)), z.ravel()[sel], lateral.ravel()[sel], lateral.ravel()[sel] ** 2])
+    hv = height.ravel()[sel]
+    keep = np.ones(len(sel), bool)
+    coef = np.zeros(4)
+    for _ in range(4):
+        coef, *_ = np.linalg.lstsq(A[keep], hv[keep], rcond=None)
+        res = hv - A @ coef
+        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.02)
+    lat = np.nan_to_num(lateral)
+    held = np.clip(lat, -CROWN_REACH, CROWN_REACH)
+    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * held ** 2
+    return tilt.astype(np.float32)
+
+
+def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:
+    """(h, w) bool: pixels at the foot of something standing (a car, a wall, a person): the
+    pixel FOOT_REACH metres above them in the image (at their depth) is 0.4-2.5 m high and at
+    about their depth."""
+    h, w = height.shape
+    v, u = np.nonzero(np.isfinite(height) & np.isfinite(z) & (height > -0.2) & (height < 0.5))
+    zz = z[v, u]
+    up = np.clip(v - np.clip(np.rint(FOOT_REACH * fy / zz), 2, 80).astype(np.int64), 0, h - 1)
+    above_h, above_z = height[up, u], z[up, u]
+    with np.errstate(invalid="ignore"):
+        hit = (above_h >= 0.4) & (above_h <= 2.5) & (np.abs(above_z - zz) < 0.1 * zz)
+    out = np.zeros((h, w), bool)
+    out[v[hit], u[hit]] = True
+    return out
+
+
+def _between(mask: np.ndarray, reach: int) -> np.ndarray:
+    """(h, w) bool: pixels with a ``mask`` pixel within ``reach`` pixels to the left and to the
+    right along their row."""
+    left, right = nearest_in_row(mask)  # -1 and W where there is none: too far from any pixel
+    cols = np.arange(mask.shape[1], dtype=np.int32)
+    return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)
+
+
+def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Level ground 6-15 m ahead of the car, in the central columns: the road the car is on."""
+    h, w = level.shape
+    cols = np.arange(w)[None, :]
+    return level & (z >= 6) & (z <= 15) & (np.abs(cols - w / 2) < 0.15 * w)
+
+
+def _lane(level: np.ndarray, seed: np.ndarray, z: np.ndarray, cam: Camera) -> np.ndarray:
+    """The car's own lane ahead: level pixels within LANE_HALF of the camera's line, 4 m to
+    LANE_REACH ahead, continuous in height with the seed (a cast shadow changes the light, not
+    the ground's height, so the lane runs on through it). ``cam``: the working camera."""
+    h, w = level.shape
+    u = np.arange(w)[None, :]
+    with np.errstate(invalid="ignore"):
+        lane = level & (np.abs((u - cam.u0) * z / cam.fx) < LANE_HALF) & (z >= 4) & (z <= LANE_REACH)
+    joined = cv2.morphologyEx(lane.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    n, comp = cv2.connectedComponents(joined, connectivity=4)
+    keep = np.zeros(n, bool)
+    keep[np.unique(comp[seed & lane])] = True
+    keep[0] = False
+    return keep[comp] & lane
+
+
+def _model(ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(median, robust spread) of (N, 3) LAB colours."""
+    med = np.median(ref, axis=0)
+    return med, np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), SPREAD_FLOOR)
+
+
+def _road_models(lab: np.ndarray, seed: np.ndarray, lane: np.ndarray) -> list:
+    """Colour models of the road: the ground in front of the car and, where the lane ahead
+    runs on into another light (sunlit beyond a cast shadow, or shadowed beyond sun: the same
+    asphalt, its colour scaled by the shadow's ratio per channel), a model of that light from
+    the lane's pixels there (at most two more)."""
+    if seed.sum() < 100:
+        return []
+    models = [_model(lab[seed])]
+    rows = np.nonzero(lane.any(axis=1))[0]
+    for _ in range(2):
+        off = lane & ~_road_coloured(lab, models)
+        n_lane, n_off = lane[rows].sum(axis=1), off[rows].sum(axis=1)
+        band = rows[(n_off >= LANE_BAND_SHARE * n_lane) & (n_off >= 3)]
+        pick = np.zeros_like(lane)
+        pick[band] = off[band]
+        if pick.sum() < max(30, LANE_MODE_SHARE * lane.size):
+            break
+        models.append(_model(lab[pick]))
+    return models
+
+
+def _road_coloured(lab: np.ndarray, models: list, limit: float = 3.0) -> np.ndarray:
+    """Pixels within ``limit`` robust spreads of one of the road's colour models."""
+    out = np.zeros(lab.shape[:2], bool)
+    for med, spread in models:
+        out |= np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < limit
+    return out
+
+
+def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray, models: list) -> np.ndarray:
+    """The level pixels of the road's colours connected to the ground in front of the car."""
+    h, w = level.shape
+    if not models:
+        return np.zeros((h, w), bool)
+    road = level & _road_coloured(lab, models)
+    road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    road = cv2.morphologyEx(road, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)).astype(bool) & level
+    n, comp = cv2.connectedComponents(road.astype(np.uint8), connectivity=4)
+    keep = np.zeros(n, bool)
+    keep[np.unique(comp[seed & road])] = True
+    keep[0] = False
+    return keep[comp]
+
+
+def frame_for(image_set, depth: np.ndarray | None = None):
+    """(placement Frame, Surfaces or None) of an image set: its own labels where it has them,
+    else the surfaces found here. The pipeline and the checker build frames the same way."""
+    from synthcompose.geometry.depth import disparity_to_depth, make_frame
+
+    cam = image_set.camera
+    if depth is None:
+        depth = disparity_to_depth(image_set.disparity, cam)
+    if image_set.labelled:
+        return make_frame(depth, image_set.label_ids, cam, photo=image_set.rgb), None
+    found = find_surfaces(image_set.disparity, image_set.rgb, cam)
+    return make_frame(depth, found.labels, cam, labelled=False, photo=image_set.rgb), found

@@ -1,0 +1,32 @@
+"""The surfaces found without labels (synthcompose/placement/surfaces.py) on sunny generated streets: a
+cast shadow changes the light on the road, not the road."""
+from __future__ import annotations
+
+import numpy as np
+
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
+from synthcompose.synthetic import SceneLight, random_scene, render_scene_sunlit
+
+from ..tolerances import ROAD_BEYOND_SHADOW_MIN, SIDEWALK_FOUND_PRECISION_SUNNY_MIN
+
+#: a low sun ahead-left: the left row's shadow covers the road near the car, the road beyond it
+#: lies in the sun; daylight is a bluish sky and a yellowish sun, 1:3 (sunny Cityscapes frames)
+SUN = SceneLight(sun_azimuth_deg=60.0, sun_elevation_deg=40.0, sun_fraction=0.75,
+                 sky_tint=(0.8, 0.95, 1.25), sun_tint=(1.1, 1.0, 0.85))
+
+
+def test_found_road_runs_on_into_the_sun_beyond_a_cast_shadow():
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512, light=SUN)
+    arrays, sunlit = render_scene_sunlit(scene, stereo="realistic", photo="realistic")
+    labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    near = (truth == ROAD) & (z > 6) & (z < 15)
+    assert sunlit[near].mean() < 0.1  # the road in front of the car is in the shadow
+    beyond = (truth == ROAD) & sunlit & (z > 15) & (z < 40)
+    assert beyond.sum() > 2000
+    # the sunlit asphalt beyond the shadow is road, not pavement
+    assert (labels[beyond] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
+    side = labels == SIDEWALK
+    assert side.sum() > 0 and (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_SUNNY_MIN
