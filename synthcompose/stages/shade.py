@@ -81,7 +81,7 @@ class Shaded:
     looks: tuple[ObjectLook, ...]
     record: ImageSetRecord  # the placement's, with the lighting and camera match
     composed: Composed
-    amodal: list  # amodal 2D box of each object (annotations)
+    amodal: tuple  # amodal 2D box of each object, or None (annotations)
     rendered: np.ndarray  # rendered pixels of each object index (0: none)
     camera: Camera
     camera_json: bytes
@@ -161,4 +161,4 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
             right_rgb = shade_right(renderer, composer, prep, LeftShading(objects, lighting, sun_mask, scene, classes,
                                                                           instances, match, tones))
     return Shaded(placed, tuple(ObjectLook(a, s, lk, c) for (a, s, lk), c in zip(looks, camera_looks)), record,
-                  composed, amodal, rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)
+                  composed, tuple(amodal), rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)
