@@ -98,7 +98,7 @@ class Verdict:
 
 
 @dataclass
-class PlacedObject:
+class PreviewObject:
     name: str  # manifest object name
     class_name: str
     placement: Placement
@@ -113,7 +113,7 @@ class View:
     ident: ImageSetId
     rgb: np.ndarray  # (H, W, 3) uint8, the input photo
     frame: Frame
-    objects: list[PlacedObject]
+    objects: list[PreviewObject]
     failures: list[NotPlaced]
     trace: list  # (candidate point in V, rejection reason)
     source: str  # "random", "saved" or "moved"
@@ -202,7 +202,7 @@ class PreviewSession:
         shaded = shade(p.renderer, p.composer, o.shade, prep, measure_light(o.read, prep, Timings()), placed, Timings(),
                        keep=("irpv", "ir", "alpha", "odepth", "id")) if placed.objects else None
         source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
-        objects = [PlacedObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
+        objects = [PreviewObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
                                 tuple(o.spec.allowed_surfaces)) for o in placed.objects]
         composed = None if shaded is None else shaded.composed
         self.view = View(self.ident, prep.image_set.rgb, prep.frame, objects, list(placed.failures), trace, source,
@@ -214,7 +214,7 @@ class PreviewSession:
         self.selected = min(self.selected, max(len(objects) - 1, 0))
         return self.view
 
-    def _verdict(self, frame: Frame, objects: list[PlacedObject]) -> Verdict:
+    def _verdict(self, frame: Frame, objects: list[PreviewObject]) -> Verdict:
         """Each object against the rules, the objects before it standing (the batch's order)."""
         rules = self.base.rules
         return Verdict(tuple((o.name, check_pose(frame, o.class_name, o.extents, o.placement.matrix, rules, o.allowed,

@@ -8,6 +8,8 @@ import zlib
 from collections import Counter
 from dataclasses import dataclass, replace
 from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -87,7 +89,7 @@ class PlacedObject:
     instance_id: int
     check: PoseCheck | None  # a saved pose: whether the batch's rules accept it
     cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
-    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
+    pose: Mapping[str, Any] | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -190,7 +192,7 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
     except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
         raise InputError(ident.path(o.dataset, "instanceIds"), str(exc)) from None
     taken.add(inst)
-    return PlacedObject(spec, model, result, inst, check, drawn, pose)
+    return PlacedObject(spec, model, result, inst, check, drawn, None if pose is None else MappingProxyType(pose))
 
 
 def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,

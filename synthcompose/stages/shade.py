@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -70,7 +70,7 @@ class ObjectLook:
     plane_albedo: tuple  # the real ground's linear colour under it
     sun_visibility: float  # 0: it stands in a real cast shadow
     appearance: Appearance  # its paint or clothes
-    camera_look: dict | None  # the camera's tone on it (gain, saturation, reference, targets)
+    camera_look: Mapping[str, Any] | None  # the camera's tone on it (gain, saturation, reference, targets)
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,7 +81,7 @@ class Shaded:
     looks: tuple[ObjectLook, ...]
     record: ImageSetRecord  # the placement's, with the lighting and camera match
     composed: Composed
-    amodal: list  # amodal 2D box of each object (annotations)
+    amodal: tuple  # amodal 2D box of each object, or None (annotations)
     rendered: np.ndarray  # rendered pixels of each object index (0: none)
     camera: Camera
     camera_json: bytes
@@ -160,5 +160,6 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
         with timed(timings, "right"):
             right_rgb = shade_right(renderer, composer, prep, LeftShading(objects, lighting, sun_mask, scene, classes,
                                                                           instances, match, tones))
-    return Shaded(placed, tuple(ObjectLook(a, s, lk, c) for (a, s, lk), c in zip(looks, camera_looks)), record,
-                  composed, amodal, rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)
+    return Shaded(placed, tuple(ObjectLook(a, s, lk, None if c is None else MappingProxyType(c))
+                                  for (a, s, lk), c in zip(looks, camera_looks)), record,
+                  composed, tuple(amodal), rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)

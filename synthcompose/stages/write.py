@@ -67,7 +67,7 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
             truncated=pl.truncated,
             placement={"attempts": obj.result.attempts, "rejections": obj.result.rejections},
             appearance=look.appearance.to_dict() | (dict(obj.cast.appearance) if obj.cast is not None else {})
-            | ({"pose": obj.pose} if obj.pose is not None else {}),
+            | ({"pose": dict(obj.pose)} if obj.pose is not None else {}),
             camera_look=None if look.camera_look is None else
             {k2: (round(v, 4) if isinstance(v, float) else v) for k2, v in look.camera_look.items()},
             placement_source="saved" if s.placed.saved is not None else "random",
