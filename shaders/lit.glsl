@@ -76,7 +76,6 @@ uniform float u_plane_fade;     // its darkening fades out over this many metres
 uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
 const float GROUND_SKY_BLUR = 0.25;  // metres
 const float GROUND_SKY_PIXELS = 3.0;  // and at least this many pixels' footprint (ground_sky())
-const float PLANE_FADE_PIXELS = 6.0;  // a plane's darkening fades over at least this many pixels
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
@@ -248,11 +247,8 @@ void main() {
     float sky_vis = 1.0;
 #else
     // the objects' darkening fades out before the plane's edges: no outline of the receiver
-    // (over u_plane_fade metres, and at least PLANE_FADE_PIXELS of the pixel's footprint: on a
-    // far plane 0.3 m is two rows, and the fade a step)
     vec2 edge = (1.0 - abs(v_local)) * u_plane_half;
-    float to_edge = min(edge.x, edge.y);
-    float fade = smoothstep(0.0, max(u_plane_fade, PLANE_FADE_PIXELS * fwidth(to_edge)), to_edge);
+    float fade = smoothstep(0.0, u_plane_fade, min(edge.x, edge.y));
     float sun_vis = mix(1.0, sun_visibility(v_world), fade);
     float open = ground_sky(v_world);
     float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
