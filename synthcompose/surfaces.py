@@ -47,9 +47,8 @@ ENCLOSED_PX = 24
 LEVEL_BAND = 0.05
 #: the road's crown is fitted within this far across from the car, metres
 CROWN_REACH = 3.5
-#: grass: green, more saturated than the road by GRASS_SATURATION, or yellower (LAB b*) by
-#: GRASS_YELLOW and more saturated by GRASS_YELLOW_SATURATION (HSV saturation smoothed)
-GRASS_SATURATION, GRASS_YELLOW, GRASS_YELLOW_SATURATION = 18, 5, 10
+#: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
+GRASS_SATURATION, GRASS_YELLOW = 18, 5
 #: a sidewalk touches the road within this many working pixels
 TOUCH_PX = 4
 #: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
@@ -206,7 +205,12 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
     hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
     seed = _seed(level, z)
-    green = _grass(hsv, lab, seed)
+    # grass is green against the road: Cityscapes photos are greenish grey all over, so the
+    # test is relative to the saturation of the level ground in front of the car
+    s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
+    b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
+    green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
+                                                          | (lab[..., 2] >= b_road + GRASS_YELLOW))
     lane = _lane(level & ~green, seed & ~green, z, sub)
     models = _road_models(lab, seed & ~green, lane)
     road = _road(level & ~green, (seed | lane) & ~green, lab, models)
@@ -284,22 +288,6 @@ def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:
     out = np.zeros((h, w), bool)
     out[v[hit], u[hit]] = True
     return out
-
-
-def _grass(hsv: np.ndarray, lab: np.ndarray, seed: np.ndarray) -> np.ndarray:
-    """(h, w) bool: grass, green against the road. Cityscapes photos are greenish grey all over,
-    so the test is relative to the level ground in front of the car (``seed``), on the
-    saturation smoothed as the LAB image is (a pixel's own saturation is texture and noise):
-    more saturated by GRASS_SATURATION, or yellower (LAB b*) by GRASS_YELLOW and saturated by
-    GRASS_YELLOW_SATURATION. Chlorophyll makes grass saturated; a grey paving stone a shade
-    yellower than the asphalt is not grass (on the labelled frames the true sidewalk is 10
-    units more saturated than the road at the median, the true terrain 40-50)."""
-    sat = cv2.GaussianBlur(hsv[..., 1].astype(np.float32), (0, 0), 2.0)
-    s_road = float(np.median(sat[seed])) if seed.any() else 40.0
-    b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
-    more = sat - s_road
-    return (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & (
-        (more >= GRASS_SATURATION) | ((lab[..., 2] >= b_road + GRASS_YELLOW) & (more >= GRASS_YELLOW_SATURATION)))
 
 
 def _between(mask: np.ndarray, reach: int) -> np.ndarray:
