@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from synthcompose.geometry import disparity_to_depth, make_frame  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth, make_frame  # noqa: E402
 from synthcompose.placement import box_corners, pose_matrix, prefilter, strict_inside  # noqa: E402
 from synthcompose.synthetic import random_scene, render_scene  # noqa: E402
 

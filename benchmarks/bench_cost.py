@@ -63,7 +63,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CODE = Path(os.environ.get("SYNTHCOMPOSE_BENCH_CODE", ROOT))
 sys.path.insert(0, str(CODE))
 
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
 from synthcompose.synthetic import make_sample  # noqa: E402
 
@@ -143,7 +143,7 @@ def manifest_for(data: Path, out: Path, folder: Path, objects: int = 1, specs: l
 _CHILD = """
 import json, resource, sys
 from dataclasses import replace
-from synthcompose.batch import run_batch
+from synthcompose.run.batch import run_batch
 from synthcompose.manifest import load_manifest
 m = load_manifest(sys.argv[1]); workers = int(sys.argv[2]); limit = int(sys.argv[3])
 if limit: m = replace(m, limit=limit)
@@ -206,7 +206,7 @@ def stage_cpu(data: Path, count: int, objects: int = 1, **extra) -> tuple[dict[s
     import importlib
 
     from synthcompose.manifest import load_manifest
-    from synthcompose.pipeline import Pipeline
+    from synthcompose.run.pipeline import Pipeline
     from synthcompose.stages import timing
 
     totals: dict[str, float] = {}

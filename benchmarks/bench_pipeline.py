@@ -23,8 +23,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.fileio import encode_png, map_threads  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.io.files import encode_png, map_threads  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "benchmarks"))

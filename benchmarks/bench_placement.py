@@ -26,12 +26,12 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.geometry import disparity_to_depth, make_frame  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth, make_frame  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
 from synthcompose.models import load_model  # noqa: E402
 from synthcompose.placement import place_object  # noqa: E402
-from synthcompose.surfaces import frame_for  # noqa: E402
+from synthcompose.placement.surfaces import frame_for  # noqa: E402
 
 
 def bench_root(root: Path, manifest, objects: int, repeat: int, seed: int, label: str) -> dict:

@@ -19,8 +19,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.bench_cost import dataset  # noqa: E402
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.fileio import PNG_COMPRESSION, PNG_STRATEGY  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.io.files import PNG_COMPRESSION, PNG_STRATEGY  # noqa: E402
 from synthcompose.labels import colorize  # noqa: E402
 
 STRATEGIES = {"default": cv2.IMWRITE_PNG_STRATEGY_DEFAULT, "filtered": cv2.IMWRITE_PNG_STRATEGY_FILTERED,

@@ -22,9 +22,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.bench_cost import CAR, dataset  # noqa: E402
-from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.io.dataset import find_image_sets  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
-from synthcompose.pipeline import Pipeline  # noqa: E402
+from synthcompose.run.pipeline import Pipeline  # noqa: E402
 
 
 def main() -> int:

@@ -16,10 +16,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from synthcompose.geometry import disparity_to_depth  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
 from synthcompose.lighting import LUM, estimate_lighting  # noqa: E402
 from synthcompose.synthetic import SceneLight, random_scene, render_scene  # noqa: E402
-from synthcompose.synthetic.camera import recorded_colour  # noqa: E402
+from synthcompose.synthetic.photo import recorded_colour  # noqa: E402
 
 
 def chroma_error(estimated, true) -> float:

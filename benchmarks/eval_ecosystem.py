@@ -26,9 +26,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from evaluation import ecosystem  # noqa: E402
-from synthcompose.batch import run_batch  # noqa: E402
-from synthcompose.dataset import find_image_sets  # noqa: E402
+from synthcompose.io.dataset import find_image_sets  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.run.batch import run_batch  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from eval_real import write_manifest  # noqa: E402

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from synthcompose.geometry import disparity_to_depth
+from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, estimate_lighting
 from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 

@@ -26,13 +26,13 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose import look  # noqa: E402
-from synthcompose.batch import run_batch  # noqa: E402
-from synthcompose.dataset import labelled_twin, read_image_set  # noqa: E402
-from synthcompose.fileio import decode_rle, write_png  # noqa: E402
-from synthcompose.geometry import disparity_to_depth  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
+from synthcompose.io.dataset import labelled_twin, read_image_set  # noqa: E402
+from synthcompose.io.files import decode_rle, write_png  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
+from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.run.batch import run_batch  # noqa: E402
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 from eval_real import done_outputs  # noqa: E402

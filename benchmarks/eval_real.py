@@ -25,11 +25,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.batch import STAGES, run_batch  # noqa: E402
-from synthcompose.check import LIMITS, check_output  # noqa: E402
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.run.batch import STAGES, run_batch  # noqa: E402
+from synthcompose.tools.check import LIMITS, check_output  # noqa: E402
 
 
 def write_manifest(root: Path, out: Path, objects: int, seed: int, folder: Path) -> Path:
@@ -100,9 +100,9 @@ def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str,
     """Per image set of an unlabelled ``root`` whose labelled twin is under ``truth``: precision
     and recall of the found road and sidewalk against gtFine, and the share of the found
     sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain)."""
-    from synthcompose.dataset import labelled_twin
+    from synthcompose.io.dataset import labelled_twin
     from synthcompose.labels import label_id
-    from synthcompose.surfaces import ROAD, SIDEWALK, find_surfaces
+    from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
 
     walkable = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
     out = []

@@ -33,8 +33,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_cost import cpu_s, dataset, run_batch, stage_cpu  # noqa: E402
 
 from evaluation.stereo_check import check_pair  # noqa: E402
-from synthcompose.dataset import find_image_sets  # noqa: E402
-from synthcompose.fileio import encode_png, read_png  # noqa: E402
+from synthcompose.io.dataset import find_image_sets  # noqa: E402
+from synthcompose.io.files import encode_png, read_png  # noqa: E402
 
 
 def right_codec_cpu(data: Path, count: int) -> float:

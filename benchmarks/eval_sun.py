@@ -37,16 +37,16 @@ from eval_look import GROUND, write_manifest  # noqa: E402
 from eval_real import done_outputs  # noqa: E402
 
 from evaluation import shadowlook  # noqa: E402
-from synthcompose import look  # noqa: E402
-from synthcompose.batch import run_batch  # noqa: E402
-from synthcompose.dataset import labelled_twin, read_image_set  # noqa: E402
-from synthcompose.fileio import decode_rle  # noqa: E402
-from synthcompose.geometry import disparity_to_depth  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
+from synthcompose.io.dataset import labelled_twin, read_image_set  # noqa: E402
+from synthcompose.io.files import decode_rle  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.lighting import plansun  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
+from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
-from synthcompose.surfaces import frame_for  # noqa: E402
+from synthcompose.placement.surfaces import frame_for  # noqa: E402
+from synthcompose.run.batch import run_batch  # noqa: E402
 
 CAR = label_id("car")
 MIN_WIDTH = 150  # pixels: the cars the under and outline figures are taken on

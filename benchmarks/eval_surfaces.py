@@ -22,10 +22,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
-from synthcompose.geometry import disparity_to_depth  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
-from synthcompose.surfaces import ROAD, SIDEWALK, find_surfaces  # noqa: E402
+from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces  # noqa: E402
 
 WALKABLE = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
 #: distance bands of the sidewalk's recall, metres

@@ -20,7 +20,7 @@ centre lines and markings placement found):
   the ego vehicle's path, is counted apart;
 * **people** whose footprint centre lies on a carriageway (between its kerbs) and not on a
   recorded crossing; **overlaps**: two objects' footprints intersecting, people closer than 0.5 m;
-* **disagreement**: objects that check-placement --strict (``synthcompose.check``) fails.
+* **disagreement**: objects that check-placement --strict (``synthcompose.tools.check``) fails.
 
 ``--run`` first runs ``eval_real.py``'s batch on ROOT (its figures printed too) and keeps the
 output in ``--out`` (default a temporary folder). Never commit outputs made from real frames.
@@ -40,12 +40,12 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.check import check_output  # noqa: E402
 from synthcompose.placement.boxes import footprint_corners, footprints_overlap  # noqa: E402
 from synthcompose.placement.street import EGO_HALF_LANE  # noqa: E402
 from synthcompose.placement.street_lines import to_road  # noqa: E402
 from synthcompose.placement.verdict import LINE_SEEN  # noqa: E402
 from synthcompose.record import read_record  # noqa: E402
+from synthcompose.tools.check import check_output  # noqa: E402
 
 VEHICLES = ("car", "truck", "bus", "motorcycle", "caravan", "trailer")
 

@@ -19,8 +19,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthcompose.dataset import find_image_sets  # noqa: E402
-from synthcompose.fileio import decode_disparity, read_png, write_png  # noqa: E402
+from synthcompose.io.dataset import find_image_sets  # noqa: E402
+from synthcompose.io.files import decode_disparity, read_png, write_png  # noqa: E402
 from synthcompose.record import read_record  # noqa: E402
 
 

@@ -27,7 +27,7 @@ sys.path.insert(0, str(REPO))
 
 from evaluation.photo_stats import photo_stats  # noqa: E402
 from evaluation.stereo_stats import BANDS, stereo_stats  # noqa: E402
-from synthcompose.dataset import find_image_sets, read_image_set  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.synthetic import PHOTO_MODES, STEREO_MODES, random_scene, render_scene  # noqa: E402
 
 ROWS = [("valid", "valid share", "{:.1%}"), ("left_band_valid", "valid share, left 100 columns", "{:.1%}"),

@@ -27,7 +27,7 @@ from typing import Iterator
 import cv2
 import numpy as np
 
-from synthcompose.dataset import ImageSetId
+from synthcompose.io.dataset import ImageSetId
 
 
 def _train_ids() -> np.ndarray:

@@ -21,7 +21,7 @@ _ROAD, _SKY = label_id("road"), label_id("sky")
 
 def photo_stats(rgb: np.ndarray, label_ids: np.ndarray | None = None) -> dict[str, float]:
     """The figures of the module doc for one (H, W, 3) uint8 RGB photo."""
-    from synthcompose.lighting.camera import estimate_noise
+    from synthcompose.lighting.camera_match import estimate_noise
 
     hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
     v, s = hsv[..., 2], hsv[..., 1]

@@ -1,5 +1,5 @@
 """How an inserted object's shadow and contact read next to the photo's own: the measures the
-sun and the ground contact are judged by (the look's other measures: :mod:`synthcompose.look`).
+sun and the ground contact are judged by (the look's other measures: :mod:`synthcompose.look.measures`).
 
 * :func:`under` - the ground right under an object's bottom edge against the ground a little
   further down: a real car darkens the road at its foot (ratio below 1);

@@ -19,10 +19,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from synthcompose.dataset import ImageSetId
-from synthcompose.fileio import decode_disparity, decode_rle, read_png
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import decode_disparity, decode_rle, read_png
 from synthcompose.labels import label_ids
-from synthcompose.lighting.camera import estimate_noise
+from synthcompose.lighting.camera_match import estimate_noise
 from synthcompose.record import read_record
 
 #: the matcher's settings: 5x5 windows, eight paths, a left-right check, a match 15 % better

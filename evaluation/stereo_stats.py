@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from synthcompose.camera import Camera
-from synthcompose.fileio import decode_disparity
-from synthcompose.geometry import back_project, disparity_to_depth, make_frame
+from synthcompose.geometry.depth import back_project, disparity_to_depth, make_frame
+from synthcompose.io.files import decode_disparity
 from synthcompose.labels import HAS_INSTANCES, label_id
 
 WINDOW = 31

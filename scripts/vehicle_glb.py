@@ -42,7 +42,7 @@ MATERIALS = {
     "canvas": ((0.16, 0.17, 0.165, 1.0), 0.0, 0.85),  # a lorry's tarpaulin  # the source's own texture kept (trim, grilles)
 }
 #: the number plate's own image (blank white, the EU size 520 x 110 mm): the renderer draws each
-#: object's plate over its UVs at this aspect (synthcompose/plates.py)
+#: object's plate over its UVs at this aspect (synthcompose/look/plates.py)
 PLATE_SIZE = (520, 110)
 
 

@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from synthcompose.io.files import read_json
+
 from .errors import InputError
-from .fileio import read_json
 
 #: optical S from camera C: x_S = -y_C, y_S = -z_C, z_S = x_C (cityscapesScripts' K multiplier)
 OPTICAL_FROM_CAMERA = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])

@@ -14,7 +14,8 @@ from .errors import SynthComposeError
 def _batch(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from .batch import run_batch
+    from synthcompose.run.batch import run_batch
+
     from .manifest import load_manifest
 
     manifest = load_manifest(args.manifest)
@@ -52,7 +53,7 @@ def _finished_batch(out: str) -> Path:
 
 
 def _check_placement(args: argparse.Namespace) -> int:
-    from .check import check_output, format_table
+    from synthcompose.tools.check import check_output, format_table
 
     _finished_batch(args.out)
 
@@ -63,7 +64,7 @@ def _check_placement(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from .report import write_report
+    from synthcompose.tools.report import write_report
 
     _finished_batch(args.out)
     print(f"written: {write_report(Path(args.out))}")
@@ -71,7 +72,8 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare_lighting(args: argparse.Namespace) -> int:
-    from .compare import compare_lighting
+    from synthcompose.tools.compare import compare_lighting
+
     from .manifest import load_manifest
     from .record import Status
 
@@ -87,7 +89,7 @@ def _preview(args: argparse.Namespace) -> int:
 
     manifest = load_manifest(args.manifest)
     if args.export_ply:  # headless: no window, no windowing toolkit imported
-        from .preview.session import PreviewSession
+        from synthcompose.preview.session import PreviewSession
 
         session = PreviewSession(manifest, args.frame)
         try:
@@ -99,7 +101,7 @@ def _preview(args: argparse.Namespace) -> int:
             session.close()
         print(f"written: {args.export_ply} ({info['points']} points, {info['objects']} object boxes)")
         return 0
-    from .preview.window import run_preview
+    from synthcompose.preview.window import run_preview
 
     return run_preview(manifest, args.frame)
 # --- end preview

@@ -5,7 +5,7 @@ into copies of the full-frame arrays. Outputs per pixel (see the shader for the 
 RGB R' = a*Irpv + (1-a)*(R + Irpv - Ir) in linear light; labels, instance ids and
 disparity take the object's values where its pixel centre is in front of the real scene.
 
-Camera match (optional, :class:`synthcompose.lighting.camera.CameraMatch`, measured there): the
+Camera match (optional, :class:`synthcompose.lighting.camera_match.CameraMatch`, measured there): the
 photo's blur and noise are given to the inserted object only - its layer blurred by a Gaussian,
 seeded noise of the photo's level where it covers the pixel.
 """
@@ -17,12 +17,13 @@ from typing import Sequence
 import moderngl
 import numpy as np
 
+from synthcompose.lighting.camera_match import CameraMatch
+from synthcompose.render.bands import row_bands
+from synthcompose.render.gl import GLContext
+
 from .colour import linear_to_srgb, srgb_to_linear
-from .gl import GLContext
 from .labels import label_ids
-from .lighting.camera import CameraMatch
 from .render import RenderPasses
-from .render.bands import row_bands
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi

@@ -13,14 +13,15 @@ from typing import Any
 import jsonschema
 from cityscapesscripts.helpers.labels import name2label
 
+from synthcompose.io.files import read_json
+from synthcompose.lighting.light import Lighting
+from synthcompose.placement.rules import GROUND_LEVEL, ORIENTATIONS, TRAFFIC_SIDES, orientation_for, surfaces_for
+
 from .cast import CAST_PREFIX, CASTS, CastEntry, entry_digest, load_catalogue
 from .errors import ManifestError
-from .fileio import read_json
 from .labels import INSERTABLE
-from .lighting.light import Lighting
 from .models import BUILTIN_PREFIX
 from .placement import PlacementRules
-from .placement.rules import GROUND_LEVEL, ORIENTATIONS, TRAFFIC_SIDES, orientation_for, surfaces_for
 
 _AXIS = {"enum": ["+x", "-x", "+y", "-y", "+z", "-z"]}
 _POS = {"type": "number", "minimum": 0.01, "maximum": 1000}  # metres: nothing smaller or larger is an object

@@ -231,5 +231,5 @@ class ImageSetRecord:
 
 def read_record(path: Path) -> ImageSetRecord:
     """The record in a file (:class:`RecordError` / :class:`InputError` naming it if unreadable)."""
-    from .fileio import read_json
+    from synthcompose.io.files import read_json
     return ImageSetRecord.from_json(read_json(path), path)

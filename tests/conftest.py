@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from synthcompose.gl import GLContext
+from synthcompose.render.gl import GLContext
 
 
 @pytest.fixture(scope="session")
@@ -39,11 +39,11 @@ def annotated_batch(tmp_path_factory):
     and 3D boxes (which must be kept): the annotation and ecosystem tests read it."""
     import json
 
-    from synthcompose.annotations import bbox3d_path
     from synthcompose.cli import main
-    from synthcompose.dataset import read_image_set
-    from synthcompose.polygons import frame_polygons
+    from synthcompose.io.dataset import read_image_set
     from synthcompose.synthetic import make_sample
+    from synthcompose.write.annotations import bbox3d_path
+    from synthcompose.write.polygons import frame_polygons
 
     from .helpers import H, W, write_manifest
 

@@ -70,7 +70,7 @@ def crashing_worker(crash_key: str, *args) -> None:
     import os
     import signal
 
-    from synthcompose import engines, pipeline
+    from synthcompose.run import engines, pipeline
 
     stream = pipeline.Pipeline.stream
 

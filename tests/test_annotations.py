@@ -16,14 +16,14 @@ from cityscapesscripts.preparation.json2instanceImg import createInstanceImage
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 from pycocotools.coco import COCO
 
-from synthcompose.annotations import COCO_NAME, bbox3d_path, box3d_corners
 from synthcompose.camera import Camera
 from synthcompose.cli import main
-from synthcompose.dataset import ImageSetId, read_image_set
-from synthcompose.fileio import decode_rle, encode_rle
+from synthcompose.io.dataset import ImageSetId, read_image_set
+from synthcompose.io.files import decode_rle, encode_rle
 from synthcompose.labels import HAS_INSTANCES
-from synthcompose.polygons import draw_polygons, frame_polygons, mask_polygon
 from synthcompose.render import mask_box
+from synthcompose.write.annotations import COCO_NAME, bbox3d_path, box3d_corners
+from synthcompose.write.polygons import draw_polygons, frame_polygons, mask_polygon
 
 from .helpers import drawn_back, write_manifest
 
@@ -143,7 +143,7 @@ def test_sensor_matrix_matches_a_real_cityscapes_3d_file():
     """sensor_T_ISO_8855 = [R^T | -R^T t] from camera.json's extrinsics reproduces the matrix a
     Cityscapes 3D gtBbox3d file gives for that calibration (x 1.7, y 0.1, z 1.22, yaw -0.0195,
     pitch 0.038, roll 0), digit for digit."""
-    from synthcompose.annotations import sensor_T_iso8855
+    from synthcompose.write.annotations import sensor_T_iso8855
 
     cam = Camera(fx=2262.52, fy=2265.3017905988554, u0=1096.98, v0=513.137, baseline=0.209313, x=1.7, y=0.1,
                  z=1.22, yaw=-0.0195, pitch=0.038, roll=0.0, width=2048, height=1024)
@@ -328,13 +328,13 @@ def test_coco_file_is_rebuilt_from_the_records_on_resume(annotated_batch, tmp_pa
 
 # ------------------------------------------------------------- an object behind a real pole
 def test_object_behind_a_real_pole_boxes_and_polygons(gl_clean, tmp_path):
-    from synthcompose.annotations import bbox3d_document, polygons_document
     from synthcompose.compose import Composer, SceneLayers
-    from synthcompose.geometry import disparity_to_depth, occluder_depth
+    from synthcompose.geometry.depth import disparity_to_depth, occluder_depth
     from synthcompose.labels import label_id
     from synthcompose.models import load_model
     from synthcompose.render import Lighting, Renderer, RenderObject, amodal_boxes
     from synthcompose.synthetic import random_scene, render_scene
+    from synthcompose.write.annotations import bbox3d_document, polygons_document
 
     from .helpers import pose_behind_a_pole
 

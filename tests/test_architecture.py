@@ -13,21 +13,21 @@ MAX_LINES = 400  # "when a module grows past ~400 lines, split it by its steps"
 #: the layers in pipeline order (a top-level module or package of synthcompose -> its layer):
 #: a module imports only from its own layer or earlier ones; every top-level module has one
 STAGE_OF = {
-    # what every stage reads: errors, files, labels, colours, the camera, the dataset
-    "errors": 0, "fileio": 0, "json_layout": 0, "labels": 0, "colour": 0, "camera": 0, "dataset": 0, "malloc": 0,
-    "builtin": 0, "plates": 0,
-    "geometry": 1, "right_view": 1,
-    "placement": 2, "saved_poses": 2, "surfaces": 2, "frequency": 2, "models": 2, "cast": 2,
-    "lighting": 3, "appearance": 3, "look": 3, "manifest": 3,
-    "gl": 4, "render": 4,
-    "compose": 5,
-    "writer": 6, "annotations": 6, "polygons": 6, "record": 6,
-    # running the stages: one image set, a batch, its engines
-    "stages": 7, "pipeline": 7, "engines": 7, "selection": 7, "batch": 7,
+    # what every stage reads: errors, colours, the label table, the camera, files and image sets
+    "errors": 0, "colour": 0, "labels": 0, "camera": 0, "io": 0, "builtin": 0,
+    "geometry": 1,
+    "placement": 2, "models": 2, "cast": 2,
+    "look": 3,
+    "lighting": 4, "manifest": 4,
+    "render": 5,
+    "compose": 6,
+    "write": 7, "record": 7,
+    # running the stages: one image set (stages/, run/pipeline), a batch and its engines (run/)
+    "stages": 8, "run": 8,
     # the tools around the batch, the generator, the command line
-    "check": 8, "report": 8, "compare": 8, "preview": 8, "synthetic": 8,
-    "cli": 8, "__main__": 8,
+    "tools": 9, "preview": 9, "synthetic": 9, "cli": 9, "__main__": 9,
 }
+MAX_TOP_LEVEL_MODULES = 12  # modules beside the packages, __init__ and __main__ included
 
 
 def _modules(package: Path = PACKAGE) -> dict[str, Path]:
@@ -141,6 +141,11 @@ def test_every_top_level_module_has_a_layer():
     assert not set(STAGE_OF) - top, sorted(set(STAGE_OF) - top)
 
 
+def test_few_modules_at_the_top_level():
+    modules = sorted(f.name for f in PACKAGE.glob("*.py"))
+    assert len(modules) <= MAX_TOP_LEVEL_MODULES, modules
+
+
 def test_no_stage_imports_a_later_stage():
     def stage(name: str) -> int | None:
         parts = name.split(".")
@@ -155,3 +160,11 @@ def test_no_module_over_the_size_limit():
     long = {str(f.relative_to(PACKAGE)): n for f in PACKAGE.rglob("*.py")
             if (n := len(f.read_text().splitlines())) > MAX_LINES}
     assert not long, long
+
+
+def test_no_private_name_is_imported_across_modules():
+    """A name with a leading underscore stays in its module: ``from .x import _y`` is refused."""
+    private = sorted(f"{f.relative_to(PACKAGE)}: {a.name}" for f in PACKAGE.rglob("*.py")
+                     for node in ast.walk(ast.parse(f.read_text())) if isinstance(node, ast.ImportFrom)
+                     for a in node.names if a.name.startswith("_") and not a.name.startswith("__"))
+    assert not private, private

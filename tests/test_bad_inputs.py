@@ -20,11 +20,11 @@ import numpy as np
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.dataset import ImageSetId
 from synthcompose.errors import InputError, ManifestError
-from synthcompose.fileio import MAX_JSON_DEPTH, read_json
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import MAX_JSON_DEPTH, read_json
 from synthcompose.manifest import load_manifest
-from synthcompose.selection import select_image_sets
+from synthcompose.run.selection import select_image_sets
 from synthcompose.synthetic import make_sample
 
 from .helpers import ASSETS, OUT_KINDS, assert_resume_matches, box_manifest, with_reference_run
@@ -72,7 +72,7 @@ def failures(out: Path) -> dict[str, str]:
 
 # ------------------------------------------------------------------------------ unreadable places
 def test_a_city_folder_that_cannot_be_listed_is_reported(sample, tmp_path, capsys, monkeypatch):
-    import synthcompose.dataset as dataset
+    import synthcompose.io.dataset as dataset
 
     root, ids = sample
     city = root / "leftImg8bit" / "train" / ids[0].city
@@ -310,7 +310,7 @@ def test_a_model_nothing_of_which_would_be_seen_is_refused_at_the_start(sample, 
 
 
 def test_an_object_with_no_visible_pixel_is_never_written(sample, tmp_path):
-    from synthcompose.saved_poses import write_saved
+    from synthcompose.placement.saved_poses import write_saved
 
     root, ids = sample
     out = tmp_path / "out"
@@ -370,7 +370,7 @@ def test_placement_numbers_without_a_bound_before_are_bounded(tmp_path, field, v
 
 # ---------------------------------------------------------------------------------- workers
 def test_worker_counts_are_one_per_core_for_0_and_capped_by_cores_and_memory(monkeypatch):
-    import synthcompose.engines as engines
+    import synthcompose.run.engines as engines
 
     monkeypatch.setattr(engines, "usable_cores", lambda: 4)
     monkeypatch.setattr(engines, "available_memory", lambda: 64 << 30)
@@ -391,7 +391,7 @@ def test_worker_counts_are_one_per_core_for_0_and_capped_by_cores_and_memory(mon
 def test_a_huge_worker_count_runs_with_what_the_machine_allows(sample, tmp_path, caplog):
     import logging
 
-    from synthcompose.engines import worker_count
+    from synthcompose.run.engines import worker_count
 
     root, ids = sample
     out = tmp_path / "out"
@@ -442,7 +442,7 @@ SAVED = {
 
 
 def test_a_saved_pose_that_cannot_be_fails_its_image_set_naming_the_file(tmp_path):
-    from synthcompose.saved_poses import FORMAT, placement_path
+    from synthcompose.placement.saved_poses import FORMAT, placement_path
 
     root = tmp_path / "cs"
     ids = make_sample(root, count=len(SAVED) + 1, width=W, height=H, seed=3)
@@ -483,7 +483,7 @@ def test_an_output_root_that_is_a_file_is_refused(sample, tmp_path, capsys):
 def test_a_read_only_output_root_is_refused_before_any_work(sample, tmp_path, capsys, monkeypatch):
     import errno
 
-    import synthcompose.batch as batch
+    import synthcompose.run.batch as batch
 
     real = batch.os.open
 

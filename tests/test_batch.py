@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.dataset import ImageSetId, read_image_set
+from synthcompose.io.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.synthetic import make_sample
 
@@ -124,7 +124,7 @@ def test_no_road_anywhere_is_reported_not_crashed(dataset, tmp_path):
     assert not ids[0].path(tmp_path / "out", "rgb").exists()
     # the photo's light is not measured where nothing was placed (the lighting stage never runs)
     from synthcompose.manifest import load_manifest
-    from synthcompose.pipeline import Pipeline
+    from synthcompose.run.pipeline import Pipeline
     with Pipeline(load_manifest(manifest)) as pipe:
         outcome = pipe.process(ids[0])
     assert outcome.status == "skipped" and "placement" in outcome.timings and "lighting" not in outcome.timings
@@ -193,7 +193,7 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     from threadpoolctl import threadpool_info
 
     from synthcompose.manifest import load_manifest
-    from synthcompose.pipeline import Pipeline
+    from synthcompose.run.pipeline import Pipeline
     from synthcompose.stages import write as write_stage
 
     root = tmp_path / "cs"

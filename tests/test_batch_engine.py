@@ -12,8 +12,8 @@ from pathlib import Path
 import cv2
 import pytest
 
-from synthcompose.batch import LOCK_NAME, OutputLock
 from synthcompose.cli import main
+from synthcompose.run.batch import LOCK_NAME, OutputLock
 from synthcompose.synthetic import make_sample
 
 from .helpers import OUT_KINDS, write_manifest

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.lighting.camera import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, estimate_blur
+from synthcompose.lighting.camera_match import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, estimate_blur
 from synthcompose.synthetic import make_sample
 
 from .helpers import write_manifest

@@ -14,20 +14,11 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 
-from synthcompose.cast import (
-    CAST_PREFIX,
-    STREET,
-    cast_model,
-    cast_rng,
-    cast_root,
-    draw_entry,
-    load_catalogue,
-    posed_person,
-)
+from synthcompose.cast import CAST_PREFIX, STREET, cast_model, cast_rng, cast_root, draw_entry, load_catalogue, posed_person
 from synthcompose.cli import main
-from synthcompose.dataset import read_image_set
 from synthcompose.errors import ManifestError, ModelError
-from synthcompose.fileio import decode_rle
+from synthcompose.io.dataset import read_image_set
+from synthcompose.io.files import decode_rle
 from synthcompose.labels import label_id
 from synthcompose.manifest import load_manifest, parse_manifest
 from synthcompose.models import load_model

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from synthcompose.frequency import object_weights
 from synthcompose.manifest import parse_manifest
 from synthcompose.placement.boxes import footprint_corners
+from synthcompose.placement.frequency import object_weights
 from synthcompose.stages.place import place
 from synthcompose.stages.prepare import prepare
 from synthcompose.synthetic import make_sample

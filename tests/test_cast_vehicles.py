@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from synthcompose.appearance import draw_appearance, recolourable
+from synthcompose.look.appearance import draw_appearance, recolourable
 from synthcompose.models import load_model
 
 VEHICLES = Path(__file__).resolve().parent.parent / "assets" / "cast" / "vehicles"

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose.fileio import PNG_FILTERS, dumps_json, encode_png
-from synthcompose.writer import PNG_FILTER_OF
+from synthcompose.io.files import PNG_FILTERS, dumps_json, encode_png
+from synthcompose.write.outputs import PNG_FILTER_OF
 
 
 def _reference_layout(obj, indent: str, out: list[str]) -> None:

@@ -5,7 +5,7 @@ import pytest
 
 from synthcompose.camera import Camera
 from synthcompose.errors import InputError
-from synthcompose.geometry import depth_to_disparity, disparity_to_depth, point_cloud
+from synthcompose.geometry.depth import depth_to_disparity, disparity_to_depth, point_cloud
 
 from .helpers import make_camera
 from .tolerances import BACKPROJECTED_PLANE_M, DEPTH_ROUNDTRIP_DISPARITY_PX, FLOAT32_DISPARITY_PX, REPROJECTION_PX
@@ -80,7 +80,7 @@ def test_holes_are_filled_for_occlusion_by_the_farther_neighbour():
     """A hole inside a near pole stays the pole's (the pole hides what is inserted behind it);
     an occlusion shadow between background and pole takes the background's depth; a hole open
     to the image border stays unknown."""
-    from synthcompose.geometry import occluder_depth
+    from synthcompose.geometry.depth import occluder_depth
 
     inf = np.inf
     row = np.array([inf, 30, 30, inf, inf, 5, inf, 5, 30, inf], np.float32)

@@ -11,7 +11,7 @@ import pytest
 
 from synthcompose.colour import srgb_to_linear
 from synthcompose.models import MeshPart, Model
-from synthcompose.models.mesh import _finish_part
+from synthcompose.models.mesh import finish_part
 from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera
@@ -28,7 +28,7 @@ def _quad(x: float, y0: float, y1: float, z0: float, z1: float, rgba, roughness:
     """A quad in the plane x = const facing -x (the camera), wound to face it."""
     pos = np.array([[x, y0, z0], [x, y1, z0], [x, y1, z1], [x, y0, z1]], np.float32)
     n = len(pos)
-    return _finish_part(pos, np.tile([-1.0, 0.0, 0.0], (n, 1)), np.zeros((n, 2)), np.tile(rgba, (n, 1)),
+    return finish_part(pos, np.tile([-1.0, 0.0, 0.0], (n, 1)), np.zeros((n, 2)), np.tile(rgba, (n, 1)),
                         np.tile([0.0, roughness], (n, 1)), np.array([[0, 1, 2], [0, 2, 3]]), None)
 
 

@@ -17,13 +17,13 @@ from synthcompose.cli import main
 from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import Composer, SceneLayers
 from synthcompose.errors import ManifestError
-from synthcompose.geometry import disparity_to_depth
+from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.lighting import GROUND_IDS, LUM, estimate_lighting
-from synthcompose.lighting.camera import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
+from synthcompose.lighting.camera_match import BOX_EDGE_SIGMA, RENDER_BLUR_SIGMA, CameraMatch, estimate_blur, estimate_noise
 from synthcompose.manifest import parse_manifest
 from synthcompose.render import RenderPasses, Roi
 from synthcompose.synthetic import SceneLight, make_sample, random_scene, render_scene, render_scene_sunlit
-from synthcompose.synthetic.camera import recorded_colour
+from synthcompose.synthetic.photo import recorded_colour
 
 from .tolerances import (
     BLUR_ESTIMATE_REL,
@@ -405,7 +405,7 @@ def test_manifest_lighting_modes(tmp_path):
 @pytest.fixture(scope="module")
 def sunny_dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("sunny")
-    from synthcompose.dataset import ImageSetId
+    from synthcompose.io.dataset import ImageSetId
     from synthcompose.synthetic import write_image_set
 
     light = SceneLight(sun_azimuth_deg=-150.0, sun_elevation_deg=45.0, sun_fraction=0.65)

@@ -57,7 +57,7 @@ LIGHT = Lighting(sun_direction=SUN, sun_rgb=(2.2, 2.0, 1.7), sky_rgb=(0.45, 0.5,
 PLANE_ALBEDO = (0.3, 0.25, 0.2)
 
 
-def _unit(v) -> np.ndarray:
+def unit_vector(v) -> np.ndarray:
     v = np.asarray(v, float)
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -86,22 +86,22 @@ def _glossy_board() -> Board:
     sun's half vector seen from the camera (the highlight on it); its vertex normals turn from
     there to nearly edge-on to the camera at its right edge (n.v about 0.25: Fresnel's rise)."""
     centre = np.array([0.0, 0.0, 1.0]) + POSE[:3, 3]
-    v = _unit(CAMERA.position - centre)
-    h = _unit(np.asarray(SUN) + v)
-    n = _unit([h[0], h[1], 0.0])
+    v = unit_vector(CAMERA.position - centre)
+    h = unit_vector(np.asarray(SUN) + v)
+    n = unit_vector([h[0], h[1], 0.0])
     along = np.array([-n[1], n[0], 0.0])  # towards -y: right in the image
     corners = np.array([-0.5 * along, 0.5 * along, 0.5 * along, -0.5 * along])
     corners[:, 2] = [0.4, 0.4, 1.6, 1.6]
-    return Board("glossy", corners, n, _unit([-0.26, -0.97, 0.0]), (0.2, 0.03, 0.03), 0.0, 0.6)
+    return Board("glossy", corners, n, unit_vector([-0.26, -0.97, 0.0]), (0.2, 0.03, 0.03), 0.0, 0.6)
 
 
 BOARDS = (
-    Board("matte", _upright(3.2, 2.2, (0.0, 1.6)), _unit([-1.0, 0.6, 0.6]), _unit([-0.5, -1.0, -0.6]),
+    Board("matte", _upright(3.2, 2.2, (0.0, 1.6)), unit_vector([-1.0, 0.6, 0.6]), unit_vector([-0.5, -1.0, -0.6]),
           (0.55, 0.45, 0.35), 0.0, 1.0),
     _glossy_board(),
-    Board("metal", _upright(-1.6, -2.6, (0.4, 1.6)), _unit([-1.0, 0.0, 0.0]), _unit([-1.0, 0.0, 0.0]),
+    Board("metal", _upright(-1.6, -2.6, (0.4, 1.6)), unit_vector([-1.0, 0.0, 0.0]), unit_vector([-1.0, 0.0, 0.0]),
           (0.9, 0.85, 0.75), 1.0, 0.3),
-    Board("back", _upright(-3.4, -4.2, (0.3, 1.3)), _unit([1.0, 0.0, 0.0]), _unit([1.0, 0.0, 0.0]),
+    Board("back", _upright(-3.4, -4.2, (0.3, 1.3)), unit_vector([1.0, 0.0, 0.0]), unit_vector([1.0, 0.0, 0.0]),
           (0.4, 0.5, 0.3), 0.0, 1.0),
 )
 
@@ -146,7 +146,7 @@ def object_colour(p, n, v, board: Board, light: Lighting, sun_vis, sun_scale: fl
     direction to the camera ``v``, the sky map open above it (object_occlusion's second factor
     1), no texture, no normal map, no photo (environment(): the fallback colours)."""
     sky, ground, sun_dir = (np.asarray(x, float) for x in (light.sky_rgb, light.ground_rgb, light.sun_direction))
-    n = _unit(n)
+    n = unit_vector(n)
     n = np.where(_dot(n, v) < 0.0, -n, n)  # two-sided
     ndl = np.maximum(_dot(n, sun_dir), 0.0)
     occlusion = mix(0.35, 1.0, smoothstep(0.0, 0.4, p[:, 2:3] - ground_z)) * mix(0.4, 1.0, 1.0)
@@ -161,7 +161,7 @@ def object_colour(p, n, v, board: Board, light: Lighting, sun_vis, sun_scale: fl
     r = -v + 2.0 * _dot(n, v) * n  # reflect(-v, n)
     env = mix(ground, sky, smoothstep(-0.2, 0.2, r[:, 2:3])) * occlusion
     gloss = 1.0 - roughness
-    h = _unit(sun_dir + v)
+    h = unit_vector(sun_dir + v)
     shininess = mix(4.0, 512.0, gloss * gloss)
     spec = sun * sun_vis * np.maximum(_dot(n, h), 0.0) ** shininess * (shininess + 8.0) / 25.0 * ndl
     return diffuse + fresnel * (env * gloss + spec * gloss)
@@ -212,7 +212,7 @@ def _pixel_rays(cam: Camera, dx: float, dy: float) -> np.ndarray:
     """(H, W, 3) unit ray directions (vehicle frame) through pixel centre + (dx, dy)."""
     rows, cols = np.mgrid[0:cam.height, 0:cam.width].astype(float)
     d = np.stack([(cols + dx - cam.u0) / cam.fx, (rows + dy - cam.v0) / cam.fy, np.ones_like(rows)], -1)
-    return _unit(d @ cam.vehicle_from_optical[:3, :3].T)
+    return unit_vector(d @ cam.vehicle_from_optical[:3, :3].T)
 
 
 #: the pixel centre, then its corners: a pixel counts as seeing one surface when all five do

@@ -11,14 +11,14 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose import look
-from synthcompose.appearance import CLOTHES, PAINTS, appearance_rng, draw_appearance, palette_rank, recolourable
 from synthcompose.cli import main
 from synthcompose.colour import linear_to_srgb
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.fileio import decode_rle
-from synthcompose.geometry import disparity_to_depth
-from synthcompose.lighting.camera import CameraMatch, ToneReference, estimate_blur, estimate_noise, object_tones
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.io.dataset import find_image_sets, read_image_set
+from synthcompose.io.files import decode_rle
+from synthcompose.lighting.camera_match import CameraMatch, ToneReference, estimate_blur, estimate_noise, object_tones
+from synthcompose.look import measures as look
+from synthcompose.look.appearance import CLOTHES, PAINTS, appearance_rng, draw_appearance, palette_rank, recolourable
 from synthcompose.models import load_model
 from synthcompose.synthetic import make_sample
 

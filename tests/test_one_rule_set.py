@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from synthcompose.check import check_output, check_record
 from synthcompose.cli import main
-from synthcompose.dataset import find_image_sets
+from synthcompose.io.dataset import find_image_sets
 from synthcompose.record import RECORD_VERSION, read_record
 from synthcompose.synthetic import make_sample
+from synthcompose.tools.check import check_output, check_record
 
 from .real_root import REAL, needs_real
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
-from synthcompose.appearance import draw_appearance
+from synthcompose.look.appearance import draw_appearance
 from synthcompose.models import Model, posable, posed_model
 from synthcompose.models.gait import BETA, HEEL_OFF, HEEL_STRIKE
 from synthcompose.models.poses import draw_pose

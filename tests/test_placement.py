@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from synthcompose.geometry import disparity_to_depth, make_frame
+from synthcompose.geometry.depth import disparity_to_depth, make_frame
 from synthcompose.placement import ALLOWED_SURFACES, PlacementRules, frame_noise, place_object, prefilter, strict_inside
 from synthcompose.synthetic import random_scene, render_scene
 

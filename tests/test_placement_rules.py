@@ -9,13 +9,13 @@ import pytest
 
 from synthcompose.cli import main
 from synthcompose.compose import Composer, SceneLayers
-from synthcompose.frequency import count_classes, object_weights
-from synthcompose.geometry import disparity_to_depth, make_frame
+from synthcompose.geometry.depth import disparity_to_depth, make_frame
 from synthcompose.labels import label_id
 from synthcompose.models import load_model
 from synthcompose.placement import PlacementRules, frame_noise, place_object
+from synthcompose.placement.frequency import count_classes, object_weights
+from synthcompose.placement.surfaces import find_surfaces
 from synthcompose.render import Lighting, Renderer, RenderObject
-from synthcompose.surfaces import find_surfaces
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .helpers import SIZES, H, W, pose_behind_a_pole, write_manifest

@@ -1,5 +1,5 @@
 """Number plates: each vehicle's own registration, drawn seeded, imaged like a plate and rendered
-on the model's plate parts (synthcompose/plates.py, models/mesh.py, render/lit.py)."""
+on the model's plate parts (synthcompose/look/plates.py, models/mesh.py, render/lit.py)."""
 from __future__ import annotations
 
 import re
@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from synthcompose.appearance import appearance_rng, draw_appearance
+from synthcompose.look.appearance import appearance_rng, draw_appearance
+from synthcompose.look.plates import draw_registration, plate_image
 from synthcompose.models import NEUTRAL_PLATE, load_model
 from synthcompose.placement import pose_matrix
-from synthcompose.plates import draw_registration, plate_image
 from synthcompose.render import Lighting, Renderer, RenderObject
 
 from .helpers import make_camera

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.dataset import read_image_set
+from synthcompose.io.dataset import read_image_set
 from synthcompose.manifest import load_manifest
 from synthcompose.placement import RULE_OF
+from synthcompose.placement.saved_poses import placement_path, read_saved
 from synthcompose.preview import PASSES, Overlay, PlacementRefused, PreviewSession
-from synthcompose.saved_poses import placement_path, read_saved
 from synthcompose.synthetic import make_sample
 
 from .helpers import write_manifest
@@ -52,7 +52,7 @@ def manifest(dataset, tmp_path):
 
 
 def test_headless_modules_never_import_a_window_toolkit():
-    code = ("import sys, synthcompose.cli, synthcompose.pipeline, synthcompose.batch, synthcompose.preview.session;"
+    code = ("import sys, synthcompose.cli, synthcompose.run.pipeline, synthcompose.run.batch, synthcompose.preview.session;"
             "bad = [m for m in ('glfw', 'pyglet', 'moderngl_window') if m in sys.modules]; assert not bad, bad")
     subprocess.run([sys.executable, "-c", code], check=True)
 

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from synthcompose import look
 from synthcompose.cli import main
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.fileio import decode_rle
-from synthcompose.geometry import disparity_to_depth
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.io.dataset import find_image_sets, read_image_set
+from synthcompose.io.files import decode_rle
 from synthcompose.lighting import estimate_lighting
-from synthcompose.surfaces import frame_for
+from synthcompose.look import measures as look
+from synthcompose.placement.surfaces import frame_for
 
 from .real_root import REAL, needs_real
 from .tolerances import CONTACT_DEPTH_REL, REAL_TONE_IN_RANGE_MIN

@@ -10,7 +10,7 @@ import pytest
 
 from evaluation.stereo_check import check_pair
 from synthcompose.cli import main
-from synthcompose.dataset import find_image_sets
+from synthcompose.io.dataset import find_image_sets
 
 from .helpers import write_manifest
 from .real_root import REAL, needs_real

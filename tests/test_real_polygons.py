@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.polygons import frame_polygons
+from synthcompose.io.dataset import find_image_sets, read_image_set
+from synthcompose.write.polygons import frame_polygons
 
 from .helpers import drawn_back
 from .real_root import REAL, needs_real

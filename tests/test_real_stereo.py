@@ -12,12 +12,12 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.geometry import disparity_to_depth, make_frame
+from synthcompose.geometry.depth import disparity_to_depth, make_frame
+from synthcompose.io.dataset import find_image_sets, read_image_set
 from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, check_pose, frame_noise, place_object
 from synthcompose.placement.noise import SIGMA_MIN, StereoNoise, measure_sigma
-from synthcompose.surfaces import find_surfaces, frame_for
+from synthcompose.placement.surfaces import find_surfaces, frame_for
 from synthcompose.synthetic import random_scene, render_scene
 
 from .helpers import SIZES

@@ -7,10 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from evaluation.shadowlook import read_sun_labels
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.geometry import disparity_to_depth
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.io.dataset import find_image_sets, read_image_set
 from synthcompose.lighting import estimate_lighting
-from synthcompose.surfaces import frame_for
+from synthcompose.placement.surfaces import frame_for
 
 from .real_root import STREETS, SUN_LABELS, needs_streets
 from .tolerances import OVERCAST_SUNNY_MAX, SUNNY_FOUND_MIN

@@ -13,9 +13,9 @@ import pytest
 from evaluation.stereo_check import check_pair, seen_by_both
 from synthcompose.camera import Camera
 from synthcompose.cli import main
-from synthcompose.dataset import find_image_sets, read_image_set
-from synthcompose.fileio import decode_disparity, read_png
-from synthcompose.right_view import carry_to_right
+from synthcompose.geometry.right_view import carry_to_right
+from synthcompose.io.dataset import find_image_sets, read_image_set
+from synthcompose.io.files import decode_disparity, read_png
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 
 from .helpers import write_manifest

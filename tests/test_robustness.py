@@ -20,12 +20,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import synthcompose.fileio as fileio
-from synthcompose import engines
+import synthcompose.io.files as fileio
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.errors import InputError, ManifestError, SynthComposeError
 from synthcompose.manifest import parse_manifest
+from synthcompose.run import engines
 from synthcompose.synthetic import make_sample
 
 from .helpers import ASSETS, OUT_KINDS, assert_resume_matches, crashing_worker, with_reference_run, write_manifest
@@ -93,7 +93,7 @@ def _polygons(root, ident):
 
 
 def _boxes(root, ident):
-    from synthcompose.annotations import bbox3d_path
+    from synthcompose.write.annotations import bbox3d_path
     return bbox3d_path(root, ident)
 
 
@@ -345,7 +345,7 @@ def test_memory_threads_and_open_files_stay_flat(tmp_path, streamed, count):
     import threading
 
     from synthcompose.manifest import load_manifest
-    from synthcompose.pipeline import Pipeline
+    from synthcompose.run.pipeline import Pipeline
 
     root = tmp_path / "cs"
     ids = make_sample(root, count=2, width=256, height=128, seed=3)

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose.dataset import ImageSetId, find_image_sets, read_image_set
-from synthcompose.geometry import disparity_to_depth, point_cloud
+from synthcompose.geometry.depth import disparity_to_depth, point_cloud
+from synthcompose.io.dataset import ImageSetId, find_image_sets, read_image_set
 from synthcompose.labels import KNOWN_IDS, label_id
 from synthcompose.synthetic import StreetScene, make_sample, random_scene, render_scene
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from evaluation.stereo_stats import stereo_stats
-from synthcompose.dataset import read_image_set
+from synthcompose.io.dataset import read_image_set
 from synthcompose.labels import label_id
 from synthcompose.synthetic import make_sample, random_scene, render_scene
 

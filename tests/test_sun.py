@@ -15,8 +15,8 @@ import pytest
 from evaluation import shadowlook
 from synthcompose.camera import Camera
 from synthcompose.colour import SRGB8_TO_LINEAR, linear_to_srgb
-from synthcompose.dataset import read_image_set
-from synthcompose.geometry import disparity_to_depth
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.io.dataset import read_image_set
 from synthcompose.lighting import estimate_lighting, plansun
 from synthcompose.models.load import load_model
 from synthcompose.render import Lighting, Renderer, RenderObject

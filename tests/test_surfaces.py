@@ -1,12 +1,12 @@
-"""The surfaces found without labels (synthcompose/surfaces.py) on sunny generated streets: a
+"""The surfaces found without labels (synthcompose/placement/surfaces.py) on sunny generated streets: a
 cast shadow changes the light on the road, not the road."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from synthcompose.geometry import disparity_to_depth
-from synthcompose.surfaces import ROAD, SIDEWALK, find_surfaces
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
 from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 
 from .tolerances import (ROAD_BEYOND_SHADOW_MIN, SIDEWALK_FOUND_PRECISION_MIN, SIDEWALK_FOUND_PRECISION_SUNNY_MIN,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from synthcompose.geometry import disparity_to_depth, make_frame
+from synthcompose.geometry.depth import disparity_to_depth, make_frame
 from synthcompose.placement import PlacementRules, footprint_corners, footprints_overlap, place_object
 from synthcompose.placement.lanes import _carriageway_lanes
 from synthcompose.placement.street import Carriageway, StreetLine, find_street

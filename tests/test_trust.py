@@ -14,9 +14,9 @@ import cv2
 import pytest
 
 from synthcompose.cli import main
-from synthcompose.fileio import dumps_json, write_bytes_atomic
+from synthcompose.io.files import dumps_json, write_bytes_atomic
 from synthcompose.synthetic import make_sample
-from synthcompose.writer import output_paths
+from synthcompose.write.outputs import output_paths
 
 from .helpers import ASSETS, write_manifest
 
@@ -198,7 +198,7 @@ def test_pipes_devices_and_bombs_are_refused_before_reading(tmp_path, capsys):
 
 def test_nan_and_infinity_in_json_are_refused(tmp_path):
     from synthcompose.errors import InputError
-    from synthcompose.fileio import read_json
+    from synthcompose.io.files import read_json
 
     path = tmp_path / "c.json"
     path.write_text('{"fx": NaN}')

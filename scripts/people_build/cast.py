@@ -3,7 +3,7 @@
 Skin tones are linear albedos spanning the range seen in German cities (light European to dark
 African skin); the shape targets' race shares follow the tone. Colours of the clothes here are
 the model's own; the render draws each object's clothes (top, bottom, shoes) in colours of its
-own (``synthcompose/appearance.py``); skin, hair, eyebrows and an inner layer keep these.
+own (``synthcompose/look/appearance.py``); skin, hair, eyebrows and an inner layer keep these.
 """
 from __future__ import annotations
 

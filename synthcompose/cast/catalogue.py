@@ -17,9 +17,9 @@ from typing import Any
 
 import jsonschema
 
-from ..errors import ModelError
-from ..fileio import read_json
-from ..labels import INSERTABLE
+from synthcompose.errors import ModelError
+from synthcompose.io.files import read_json
+from synthcompose.labels import INSERTABLE
 
 #: a manifest's ``"model": "cast:<selector>"`` draws from the catalogue
 CAST_PREFIX = "cast:"

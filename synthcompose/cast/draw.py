@@ -14,8 +14,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..models import Model, load_model
-from ..models.signs import Plate, sign_model
+from synthcompose.models import Model, load_model
+from synthcompose.models.signs import Plate, sign_model
+
 from .catalogue import SIGN_MODEL, CastEntry
 
 log = logging.getLogger("synthcompose")
@@ -46,7 +47,7 @@ def posed_person(entry: CastEntry, size: tuple[tuple[str, float], ...], rng: np.
     """A person entry posed for one object: ``models.skinning.posed_model`` where that module
     is installed and the entry is rigged; else its file in the pose it was saved in (rest)."""
     try:
-        from ..models.skinning import posed_model
+        from synthcompose.models.skinning import posed_model
     except ImportError:
         posed_model = None
     if posed_model is None or entry.rig is None:

@@ -4,7 +4,7 @@ The package's files are its steps: ``light`` (the record of a light, :class:`Lig
 the constants the cues share), ``grid`` (the photo reduced to cells with points and normals),
 one file per cue (``shadows``, ``pairs``, ``casters``, ``lines``), ``estimate`` (the cues
 weighed into one estimate) and ``camera`` (the camera's noise, blur and tone, given to the
-inserted objects). The ``compare-lighting`` command lives in :mod:`synthcompose.compare`.
+inserted objects). The ``compare-lighting`` command lives in :mod:`synthcompose.tools.compare`.
 
 The estimate:
 
@@ -85,7 +85,7 @@ exposure implies. It is applied only where the manifest asks for it (``match_exp
 from __future__ import annotations
 
 from . import estimate, lines
-from .camera import CameraMatch, estimate_blur, estimate_noise
+from .camera_match import CameraMatch, estimate_blur, estimate_noise
 from .estimate import estimate_lighting
 from .light import GROUND_IDS, LUM, OCCLUDER_IDS, SHADING_IDS, LightEstimate, Lighting, camera_noise_seed, fixed_record
 

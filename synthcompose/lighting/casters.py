@@ -6,10 +6,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from .grid import _Grid
+from synthcompose.camera import Camera
+
+from .grid import Grid
 from .light import OCCLUDER_IDS
-from .shadows import _ground_cells
+from .shadows import ground_cells
 
 CASTER_MAX_HEIGHT = 6.0  # metres above their ground: the caster points used (lower parts of walls)
 CASTER_POINTS = 1500  # at most, evenly spread over the casters
@@ -63,8 +64,8 @@ class _CasterCue:
         return e.sum(axis=1) / e.shape[1], dark.sum(axis=1), step
 
 
-def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
-    ground, d_here = _ground_cells(g, camera)
+def caster_cue(g: Grid, camera: Camera) -> _CasterCue | None:
+    ground, d_here = ground_cells(g, camera)
     standing = np.isin(g.label, OCCLUDER_IDS)
     # ground seen below something standing that is not clearly nearer than it (under a car's
     # body, at its foot) is dark from contact shadow alone
@@ -129,7 +130,7 @@ def _caster_cue(g: _Grid, camera: Camera) -> _CasterCue | None:
     return _CasterCue(op[:, :2].astype(np.float32), h.astype(np.float32), plan, (x0, y0), (nx, ny))
 
 
-def _caster_sun(cue: _CasterCue, coarse: list):
+def sun_from_casters(cue: _CasterCue, coarse: list):
     """A sun found from the shadows of the casters in view, for ground without a clear second
     brightness level (the sun ahead of the camera: the shadows of cars, poles and people fall
     towards it, a small share of the ground): (agreement, azimuth, elevation, shadow log ratio),

@@ -5,10 +5,11 @@ import math
 
 import numpy as np
 
-from ..camera import Camera
+from synthcompose.camera import Camera
+
 from . import lines, plansun
-from .casters import CASTER_MAX_BRIGHT, CASTER_MIN_AGREEMENT, _caster_cue, _caster_sun
-from .grid import _grid, smoothing_for
+from .casters import CASTER_MAX_BRIGHT, CASTER_MIN_AGREEMENT, caster_cue, sun_from_casters
+from .grid import make_grid, smoothing_for
 from .light import (
     EXPOSURE_RANGE,
     LIT_GROUND_KNOWN,
@@ -25,12 +26,12 @@ from .light import (
     SIDEWALK_ID,
     SKY_ID,
     LightEstimate,
-    _unit,
+    unit_vector,
 )
-from .lines import _along_line, _shadow_line
-from .pairs import _GAMMAS, _KS, _pair_cue, _pair_fit, _pair_none, _pair_sun, _PairCue, _rho
+from .lines import along_line, find_shadow_line
+from .pairs import GAMMAS, KS, PairCue, pair_cue, pair_fit, pair_none, pair_sun, rho
 from .plan import completed_labels
-from .shadows import _Mixture, _mixture, _Occluders, _shadow_cue, _shadow_score, _ShadowCue
+from .shadows import Mixture, Occluders, ShadowCue, fit_mixture, shadow_cue, shadow_score
 
 #: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
 #: direction
@@ -57,12 +58,12 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     if completed is None:
         completed = label_ids if labelled else completed_labels(label_ids, depth, camera)
     smooth, sigma_d = smoothing_for(depth, label_ids, camera)
-    g = _grid(rgb, label_ids, depth, camera, work_width, smooth)
-    occ = _Occluders.build(g, label_ids, depth, camera)
-    shadow = _shadow_cue(g, occ, camera)
-    pairs = _pair_cue(g)
-    mix = _mixture(shadow) if shadow is not None else None
-    none, gm_none = _pair_none(pairs) if pairs is not None else (None, 0.3)
+    g = make_grid(rgb, label_ids, depth, camera, work_width, smooth)
+    occ = Occluders.build(g, label_ids, depth, camera)
+    shadow = shadow_cue(g, occ, camera)
+    pairs = pair_cue(g)
+    mix = fit_mixture(shadow) if shadow is not None else None
+    none, gm_none = pair_none(pairs) if pairs is not None else (None, 0.3)
     cues: dict = {"grid": [int(g.lum.shape[1]), int(g.lum.shape[0])], "stereo_sigma_px": sigma_d,
                   "depth_smoothing_cells": smooth,
                   "ground_samples": 0 if shadow is None else int(len(shadow.rel)),
@@ -79,10 +80,10 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         # perfect prediction would score (the entropy of the shadowed share), weakly
         sd = 0.0
         if shadow is not None:
-            sd = _shadow_score(shadow, mix, *shadow.shadowed(az, el)) / entropy
+            sd = shadow_score(shadow, mix, *shadow.shadowed(az, el)) / entropy
         sh, k, gm = 0.0, 1.0, gm_none
         if pairs is not None:
-            sh, k, gm = _pair_fit(pairs, none, az, el)
+            sh, k, gm = pair_fit(pairs, none, az, el)
         return sh + SHADOW_AGREEMENT_WEIGHT * sd, {
             "shadow_agreement": sd, "shading_gain": sh, "shading_sky_share": k, "shading_ground_ratio": gm}
 
@@ -91,7 +92,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     coarse = []
     for az in np.arange(0.0, 360.0, 15.0):
         for el in (15.0, 25.0, 35.0, 45.0, 55.0, 65.0, 78.0):
-            coarse.append((_pair_fit(pairs, none, az, el)[0] if pairs is not None else 0.0, float(az), el))
+            coarse.append((pair_fit(pairs, none, az, el)[0] if pairs is not None else 0.0, float(az), el))
     coarse.sort(key=lambda t: -t[0])
     best = (-np.inf, 0.0, 45.0, {})
     for _, az, el in coarse[:6]:
@@ -122,10 +123,10 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     if two_levels and pairs is not None:
         # a straight shadow edge off the street's axes runs along the sun's azimuth: it decides
         # between directions the shading barely tells apart
-        phi, length = _shadow_line(g, camera, shadow, mix)
+        phi, length = find_shadow_line(g, camera, shadow, mix)
         cues["shadow_line"] = [phi, length]
         if length >= lines.LINE_MIN_LENGTH:
-            line_sun = _along_line(phi, coarse[0][0], pairs, none, evidence)
+            line_sun = along_line(phi, coarse[0][0], pairs, none, evidence)
     if line_sun is not None:
         score, az, el, info = line_sun
         cues.update(info)
@@ -143,9 +144,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         lit_ground = _lit_ground_sun(shadow, pairs, none, coarse)
     if not two_levels and lit_ground is None and shadow is not None \
             and np.mean(shadow.rel > -MAX_SHADOW_LOG_RATIO) <= CASTER_MAX_BRIGHT:
-        casters = _caster_cue(g, camera)
+        casters = caster_cue(g, camera)
         if casters is not None:
-            cast = _caster_sun(casters, coarse)
+            cast = sun_from_casters(casters, coarse)
     if not two_levels and lit_ground is None and cast is None and shadow is not None and pairs is not None:
         shaded = _shaded_ground_sun(shadow, pairs, none, coarse)
     if lit_ground is not None or shaded is not None:
@@ -159,7 +160,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         # the casters in view throw their shadows where that sun puts them
         sunny = True
         agreement, az, el, cast_step = cast
-        gain, k, gm = _pair_fit(pairs, none, az, el) if pairs is not None else (0.0, math.exp(cast_step), gm_none)
+        gain, k, gm = pair_fit(pairs, none, az, el) if pairs is not None else (0.0, math.exp(cast_step), gm_none)
         info = {"shadow_agreement": 0.0, "shading_gain": gain, "shading_sky_share": k, "shading_ground_ratio": gm}
         cues.update(info)
         cues["caster_agreement"] = agreement
@@ -173,8 +174,8 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     cues["plan"] = ps.to_dict()
     plan_dir = None
     if ps.sunny:  # its casters: what stands, labelled or found from the depth
-        cg = g if labelled else _grid(rgb, completed, depth, camera, work_width, smooth)
-        plan_dir = plansun.direction(ps, _caster_cue(cg, camera), evidence)
+        cg = g if labelled else make_grid(rgb, completed, depth, camera, work_width, smooth)
+        plan_dir = plansun.direction(ps, caster_cue(cg, camera), evidence)
     if plan_dir is not None:
         # the plan's edges run along the sun's azimuth and along the street (roof lines, car
         # sides): where the other cues already found a sun and its direction (two ground levels
@@ -222,13 +223,13 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         # over the sky's share
         lit_scale = 1.0 if shaded is None else 1.0 / shaded[3]
         lit_col = _class_mean(shadow, lit)
-        ground_rgb = _unit(lit_col)
+        ground_rgb = unit_vector(lit_col)
         if in_shadow.sum() >= 10:
             shade_col = _class_mean(shadow, in_shadow & typical)
-            sky_rgb = _unit(shade_col)
+            sky_rgb = unit_vector(shade_col)
             # lit / shadow of the same surfaces, per channel, = 1 + sun / sky
             ratio = _class_ratio(shadow, lit, in_shadow & typical)
-            sun_rgb = _unit(np.maximum(sky_rgb * (ratio - 1.0), 1e-3))
+            sun_rgb = unit_vector(np.maximum(sky_rgb * (ratio - 1.0), 1e-3))
         else:
             sky_rgb = sun_rgb = ground_rgb
         levels = tuple((int(k), lit_scale * float(np.median(shadow.lin[lit & (shadow.cls == k)] @ LUM)))
@@ -249,7 +250,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         evidence += ("sky",)
         cues["sky_pixels_linear_rgb"] = [float(v) for v in g.lin[sky].mean(axis=0)]
         if shadow is None:  # no ground in view: the sky's colour
-            sky_rgb = sun_rgb = ground_rgb = _unit(g.lin[sky].mean(axis=0))
+            sky_rgb = sun_rgb = ground_rgb = unit_vector(g.lin[sky].mean(axis=0))
     return LightEstimate(
         sunny=sunny, sun_azimuth_deg=float(az % 360.0), sun_elevation_deg=float(el), sun_fraction=sun_fraction,
         sky_rgb=tuple(float(v) for v in sky_rgb), sun_rgb=tuple(float(v) for v in sun_rgb),
@@ -259,7 +260,7 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         cues=cues)
 
 
-def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
+def _lit_ground_sun(shadow: ShadowCue, pairs: PairCue, none: np.ndarray, coarse: list):
     """A sun for ground without cast shadows in view: (shading gain, azimuth, elevation, sky
     share, ground ratio), or None. Only where the shading shows a clear sun (gain >=
     :data:`LIT_GROUND_MIN_GAIN`) and its best direction, within :data:`LIT_GROUND_MARGIN`, is one
@@ -285,7 +286,7 @@ def _lit_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coars
     return _shading_sun(pairs, none, coarse, (lit, lit_unseen))
 
 
-def _shaded_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, coarse: list):
+def _shaded_ground_sun(shadow: ShadowCue, pairs: PairCue, none: np.ndarray, coarse: list):
     """A sun whose light does not reach the ground in view (low beyond the buildings on its
     side): (shading gain, azimuth, elevation, sky share, ground ratio), or None. Only for ground
     of one level that the other rules left: the shading shows a clear sun (gain >=
@@ -302,7 +303,7 @@ def _shaded_ground_sun(shadow: _ShadowCue, pairs: _PairCue, none: np.ndarray, co
     return _shading_sun(pairs, none, coarse, (shaded,))
 
 
-def _shading_sun(pairs: _PairCue, none: np.ndarray, coarse: list, tests):
+def _shading_sun(pairs: PairCue, none: np.ndarray, coarse: list, tests):
     """A clear shading sun that passes a test: the best coarse direction (gain, azimuth,
     elevation; best first) within :data:`LIT_GROUND_MARGIN` of the best and at least
     :data:`LIT_GROUND_MIN_GAIN` that passes the first test any passes, refined on a 5 degree grid
@@ -322,29 +323,29 @@ def _shading_sun(pairs: _PairCue, none: np.ndarray, coarse: list, tests):
     _, az0, el0 = found
     for az in az0 + np.arange(-10.0, 10.1, 5.0):
         for el in np.clip(el0 + np.arange(-8.0, 8.1, 4.0), 8.0, 85.0):
-            gain = _pair_fit(pairs, none, float(az % 360.0), float(el))[0]
+            gain = pair_fit(pairs, none, float(az % 360.0), float(el))[0]
             if gain > best[0] and test(float(az % 360.0), float(el)):
                 best = (gain, float(az % 360.0), float(el))
-    gain, k, gm = _pair_fit(pairs, none, best[1], best[2])
+    gain, k, gm = pair_fit(pairs, none, best[1], best[2])
     return gain, best[1], best[2], k, gm
 
 
-def _lit_pairs_low(pairs: _PairCue, none: np.ndarray, az: float, el: float) -> float:
+def _lit_pairs_low(pairs: PairCue, none: np.ndarray, az: float, el: float) -> float:
     """Height (m) of the lowest tenth of the pairs that the sun from (az, el) lights (its model
     explains them clearly better than ambient light, and it makes their two ends differ): near 0
     when the sun reaches the feet of the walls and cars, so the ground around them; higher when
     the ground in view lies in the shadow of what stands beyond it (inf without such pairs)."""
-    _, k, gm = _pair_fit(pairs, none, az, el)
+    _, k, gm = pair_fit(pairs, none, az, el)
     t = pairs.terms
-    i, j = int(np.argmin(np.abs(_KS - k))), int(np.argmin(np.abs(_GAMMAS - gm)))
-    s1, s2 = _pair_sun(t, az, el)
+    i, j = int(np.argmin(np.abs(KS - k))), int(np.argmin(np.abs(GAMMAS - gm)))
+    s1, s2 = pair_sun(t, az, el)
     ambient = np.log(t["kh1"][i, j] / t["kh2"][i, j])
     sun = np.log((t["kh1"][i, j] + (1 - k) * s1) / (t["kh2"][i, j] + (1 - k) * s2))
-    lit = (np.abs(sun - ambient) > 0.4) & (_rho(t["y"] - sun) + 0.5 < none)
+    lit = (np.abs(sun - ambient) > 0.4) & (rho(t["y"] - sun) + 0.5 < none)
     return float(np.quantile(pairs.z[lit], 0.1)) if lit.sum() >= 20 else math.inf
 
 
-def _core_step(cue: _ShadowCue, mix: _Mixture) -> float:
+def _core_step(cue: ShadowCue, mix: Mixture) -> float:
     """log(shadow / lit) from the samples the mixture is sure of (median of each class's
     shadow core minus median of its lit core): cells straddling a shadow's edge, half lit,
     would pull the mixture's mean step towards 0."""
@@ -358,7 +359,7 @@ def _core_step(cue: _ShadowCue, mix: _Mixture) -> float:
     return float(np.average(steps, weights=weights)) if steps else mix.delta
 
 
-def _class_mean(cue: _ShadowCue, mask: np.ndarray) -> np.ndarray:
+def _class_mean(cue: ShadowCue, mask: np.ndarray) -> np.ndarray:
     """Mean linear colour over the samples in ``mask``, each class scaled to its own luminance
     (so that a bright sidewalk and a dark road weigh alike)."""
     acc, wsum = np.zeros(3), 0.0
@@ -372,7 +373,7 @@ def _class_mean(cue: _ShadowCue, mask: np.ndarray) -> np.ndarray:
     return acc / wsum if wsum else np.ones(3)
 
 
-def _class_ratio(cue: _ShadowCue, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _class_ratio(cue: ShadowCue, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(3,) per-channel ratio of the mean colours of samples ``a`` over samples ``b``, within
     each class (same albedo), averaged over the classes in log."""
     logs, weights = [], []
@@ -384,7 +385,7 @@ def _class_ratio(cue: _ShadowCue, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.exp(np.average(logs, axis=0, weights=weights)) if logs else np.ones(3)
 
 
-def _exposure(cue: _ShadowCue, mask: np.ndarray, scale: float = 1.0) -> tuple[float, str]:
+def _exposure(cue: ShadowCue, mask: np.ndarray, scale: float = 1.0) -> tuple[float, str]:
     """Irradiance of lit ground from the samples in ``mask`` (their luminance times ``scale``)
     against the typical albedo of road, else sidewalk; and which of them."""
     for cls, albedo, name in ((ROAD_ID, ROAD_ALBEDO, "road"), (SIDEWALK_ID, SIDEWALK_ALBEDO, "sidewalk")):

@@ -7,13 +7,14 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from ..placement.noise import STEP, measure_sigma
-from .light import _FINE_IDS, _LUT, GROUND_IDS, LUM
+from synthcompose.camera import Camera
+from synthcompose.placement.noise import STEP, measure_sigma
+
+from .light import FINE_IDS, GROUND_IDS, LEVEL_LUT, LUM
 
 
 @dataclass(eq=False)
-class _Grid:
+class Grid:
     """The photo reduced to cells of ``f`` x ``f`` pixels (mean linear colour)."""
 
     f: int
@@ -43,12 +44,12 @@ def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:
     return cv2.resize(a, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else a.copy()
 
 
-def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int,
-          smooth: int = 1) -> _Grid:
+def make_grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int,
+          smooth: int = 1) -> Grid:
     H, W = label_ids.shape
     f = max(1, int(round(W / work_width)))
     h, w = H // f, W // f
-    lin = _cell_mean(cv2.LUT(rgb, _LUT), f)
+    lin = _cell_mean(cv2.LUT(rgb, LEVEL_LUT), f)
     lab_min, lab_max = _cell_reduce(label_ids, f, cv2.erode), _cell_reduce(label_ids, f, cv2.dilate)
     # depth of a cell: the mean of its known depths (stereo leaves holes), if half are known
     d = depth.astype(np.float32, copy=False)
@@ -70,10 +71,10 @@ def _grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Cam
     pts = opt @ m[:3, :3].T + m[:3, 3]
     normals = _normals(pts, lab_min, pure, camera)
     if f > 1:  # a face narrower than 5 cells, or a cell within 2 of a corner: at pixel scale
-        rr, cc = np.nonzero(pure & np.isnan(normals[..., 0]) & np.isin(lab_min, _FINE_IDS))
+        rr, cc = np.nonzero(pure & np.isnan(normals[..., 0]) & np.isin(lab_min, FINE_IDS))
         normals[rr, cc] = _fine_normals(rr * f + f // 2, cc * f + f // 2, label_ids, d, camera)
     lum = (lin @ LUM.astype(np.float32)).astype(np.float32)
-    return _Grid(f, lin, lum, lab_min, pure, pts, normals)
+    return Grid(f, lin, lum, lab_min, pure, pts, normals)
 
 
 #: a frame whose disparity errs by more than this (pixels, :func:`noise.measure_sigma` on its

@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..colour import LUM as _LUM
-from ..colour import SRGB8_TO_LINEAR
-from ..labels import category_ids, label_ids
+from synthcompose.colour import LUM as _LUM
+from synthcompose.colour import SRGB8_TO_LINEAR
+from synthcompose.labels import category_ids, label_ids
 
 LUM = _LUM  # Rec. 709 luminance weights of linear RGB
 #: typical albedo of asphalt and of sidewalk paving (linear luminance): the exposure reference
@@ -38,9 +38,9 @@ OCCLUDER_IDS = tuple(sorted(label_ids("static", "dynamic", "vegetation")
 #: surface classes whose albedo is locally constant enough for the shading pairs
 SHADING_IDS = label_ids("road", "sidewalk", "building", "wall", "fence", "guard rail", "pole", "traffic light",
                         "traffic sign", "car", "truck", "bus", "caravan", "trailer", "train")
-_FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
+FINE_IDS = tuple(i for i in SHADING_IDS if i not in GROUND_IDS)
 
-_LUT = SRGB8_TO_LINEAR
+LEVEL_LUT = SRGB8_TO_LINEAR
 
 
 @dataclass(frozen=True)
@@ -67,23 +67,23 @@ class Lighting:
         return {k: list(getattr(self, k)) for k in ("sun_direction", "sun_rgb", "sky_rgb", "ground_rgb")}
 
 
-def _unit(c) -> np.ndarray:
+def unit_vector(c) -> np.ndarray:
     """Colour scaled to luminance 1 (neutral when it has none)."""
     c = np.maximum(np.asarray(c, np.float64), 1e-6)
     y = float(c @ LUM)
     return c / y if y > 1e-6 else np.ones(3)
 
 
-def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+def sun_direction_of(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
     el, az = math.radians(elevation_deg), math.radians(azimuth_deg)
     return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
 
 
-def _r(v, nd: int = 4):
+def round_to(v, nd: int = 4):
     if isinstance(v, dict):
-        return {str(k): _r(x, nd) for k, x in v.items()}
+        return {str(k): round_to(x, nd) for k, x in v.items()}
     if isinstance(v, (list, tuple, np.ndarray)):
-        return [_r(x, nd) for x in v]
+        return [round_to(x, nd) for x in v]
     if isinstance(v, (bool, np.bool_)):
         return bool(v)
     if isinstance(v, (int, np.integer)):
@@ -139,7 +139,7 @@ class LightEstimate:
 
     @property
     def sun_direction(self) -> tuple[float, float, float]:
-        return tuple(float(v) for v in _direction(self.sun_azimuth_deg, self.sun_elevation_deg))
+        return tuple(float(v) for v in sun_direction_of(self.sun_azimuth_deg, self.sun_elevation_deg))
 
     @property
     def sky_share(self) -> float:
@@ -150,11 +150,11 @@ class LightEstimate:
         """The renderer's light: an up-facing unshadowed surface gets ``exposure`` (luminance);
         1 is the :class:`Lighting` convention, ``self.exposure`` matches the photo's brightness."""
         f = self.sun_fraction if self.sunny else 0.0
-        sky = exposure * (1.0 - f) * _unit(self.sky_rgb)
-        ground = exposure * self.ground_ratio * (1.0 - f) * _unit(self.ground_rgb)
+        sky = exposure * (1.0 - f) * unit_vector(self.sky_rgb)
+        ground = exposure * self.ground_ratio * (1.0 - f) * unit_vector(self.ground_rgb)
         # without a sun its direction only sizes the ground planes for shadows: straight up
-        d = _direction(self.sun_azimuth_deg, self.sun_elevation_deg) if self.sunny else np.array([0.0, 0.0, 1.0])
-        sun = exposure * f / max(d[2], 0.05) * _unit(self.sun_rgb)
+        d = sun_direction_of(self.sun_azimuth_deg, self.sun_elevation_deg) if self.sunny else np.array([0.0, 0.0, 1.0])
+        sun = exposure * f / max(d[2], 0.05) * unit_vector(self.sun_rgb)
         t = lambda c: tuple(float(v) for v in c)  # noqa: E731
         return Lighting(t(d), t(sun), t(sky), t(ground))
 
@@ -188,7 +188,7 @@ class LightEstimate:
         if self.ground_shadowed:
             mask[np.isin(label_ids, GROUND_IDS)] = 0.0
             return mask
-        lum = cv2.blur(_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
+        lum = cv2.blur(LEVEL_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
         for label, level in self.ground_levels:
             sel = label_ids == label
             mask[sel] = self._ramp(np.log(np.maximum(lum[sel], 1e-6)), level)
@@ -199,15 +199,15 @@ class LightEstimate:
         return {
             "mode": "estimate",
             "sunny": self.sunny,
-            "sun_azimuth_deg": _r(self.sun_azimuth_deg, 1), "sun_elevation_deg": _r(self.sun_elevation_deg, 1),
-            "sun_fraction": _r(self.sun_fraction, 3), "sky_share": _r(self.sky_share, 3),
-            "sky_rgb": _r(self.sky_rgb), "sun_rgb": _r(self.sun_rgb), "ground_rgb": _r(self.ground_rgb),
-            "ground_ratio": _r(self.ground_ratio, 3), "exposure": _r(self.exposure, 3),
-            "confidence": _r(self.confidence, 3),
-            "ground_levels": {str(k): _r(v, 5) for k, v in self.ground_levels},
-            "shadow_log_ratio": _r(self.shadow_log_ratio, 3), "ground_shadowed": self.ground_shadowed,
+            "sun_azimuth_deg": round_to(self.sun_azimuth_deg, 1), "sun_elevation_deg": round_to(self.sun_elevation_deg, 1),
+            "sun_fraction": round_to(self.sun_fraction, 3), "sky_share": round_to(self.sky_share, 3),
+            "sky_rgb": round_to(self.sky_rgb), "sun_rgb": round_to(self.sun_rgb), "ground_rgb": round_to(self.ground_rgb),
+            "ground_ratio": round_to(self.ground_ratio, 3), "exposure": round_to(self.exposure, 3),
+            "confidence": round_to(self.confidence, 3),
+            "ground_levels": {str(k): round_to(v, 5) for k, v in self.ground_levels},
+            "shadow_log_ratio": round_to(self.shadow_log_ratio, 3), "ground_shadowed": self.ground_shadowed,
             "evidence": list(self.evidence), "fallback": not self.evidence,
-            "cues": _r(self.cues),
+            "cues": round_to(self.cues),
         }
 
 

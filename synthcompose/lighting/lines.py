@@ -6,12 +6,13 @@ import math
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from ..labels import label_ids
-from .grid import _Grid
+from synthcompose.camera import Camera
+from synthcompose.labels import label_ids
+
+from .grid import Grid
 from .light import LUM
-from .pairs import _pair_fit, _PairCue
-from .shadows import _Mixture, _ShadowCue
+from .pairs import PairCue, pair_fit
+from .shadows import Mixture, ShadowCue
 
 #: a straight edge between lit and shadowed ground at least this long (metres, on the ground
 #: plan) and off the street's axis and its normal by more than LINE_AXIS_BAND degrees is the
@@ -26,7 +27,7 @@ _LINE_MAX_DIST = 30.0  # metres: edges farther from the camera are too coarse on
 _LINE_GAP = 3  # empty bins bridged along an edge
 
 
-def _street_axis(g: _Grid) -> float:
+def _street_axis(g: Grid) -> float:
     """Direction (degrees, mod 180) of the street: normal to the walls' most common facing (the
     vehicle's heading when no wall is in view)."""
     sub = (slice(None, None, 2), slice(None, None, 2))  # every other cell is plenty
@@ -41,7 +42,7 @@ def _street_axis(g: _Grid) -> float:
     return float((np.argmax(h) + 90) % 180)
 
 
-def _shadow_line(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixture) -> tuple[float, float]:
+def find_shadow_line(g: Grid, camera: Camera, cue: ShadowCue, mix: Mixture) -> tuple[float, float]:
     """The longest straight edge between lit and shadowed ground on the ground plan, off the
     street's axis and its normal by more than :data:`LINE_AXIS_BAND` (kerbs, roof lines,
     building ends): (direction in degrees mod 180, length in metres); length 0 without one."""
@@ -57,7 +58,7 @@ def _shadow_line(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixture) -> tu
     return float((i + off @ w / w.sum()) % 180.0), float(lengths[i])
 
 
-def _shadow_line_lengths(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixture) -> np.ndarray:
+def _shadow_line_lengths(g: Grid, camera: Camera, cue: ShadowCue, mix: Mixture) -> np.ndarray:
     """(180,) per ground-plan direction (degrees, mod 180): the length (metres) of the longest
     straight edge between lit and shadowed ground along it, 0 within :data:`LINE_AXIS_BAND` of
     the street's axis or its normal; measured every other degree, and every degree within 11 of
@@ -126,7 +127,7 @@ def _shadow_line_lengths(g: _Grid, camera: Camera, cue: _ShadowCue, mix: _Mixtur
     return out
 
 
-def _along_line(phi: float, top: float, pairs: _PairCue, none: np.ndarray, evidence):
+def along_line(phi: float, top: float, pairs: PairCue, none: np.ndarray, evidence):
     """The direction of best ``evidence`` (its score, azimuth, elevation, info) whose azimuth lies
     along a straight shadow edge (``phi`` or ``phi + 180``, within 4 degrees) and whose shading
     gain is within :data:`LINE_MARGIN` of the best (``top``) and whose evidence is positive; None
@@ -135,7 +136,7 @@ def _along_line(phi: float, top: float, pairs: _PairCue, none: np.ndarray, evide
 
     def consider(a: float, e: float) -> None:
         nonlocal best
-        if _pair_fit(pairs, none, a, e)[0] < top - LINE_MARGIN:
+        if pair_fit(pairs, none, a, e)[0] < top - LINE_MARGIN:
             return
         score, info = evidence(a, e)
         if score > (0.0 if best is None else best[0]):

@@ -6,12 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .grid import _Grid
-from .light import SHADING_IDS, _direction
+from .grid import Grid
+from .light import SHADING_IDS, sun_direction_of
 
 
 @dataclass(eq=False)
-class _PairCue:
+class PairCue:
     n1: np.ndarray  # (N, 3)
     n2: np.ndarray
     y: np.ndarray  # (N,) log luminance ratio 1 / 2
@@ -19,10 +19,10 @@ class _PairCue:
     rc: np.ndarray  # (N, 4) grid cells (row, col) of both ends
     weight: np.ndarray  # (N,) so that no one object (image region) outweighs the rest
     z: np.ndarray  # (N,) height (vehicle frame: above the ground under the camera) of the lower end
-    terms: dict = field(default_factory=dict)  # direction-free terms of _pair_fit, float32
+    terms: dict = field(default_factory=dict)  # direction-free terms of pair_fit, float32
 
 
-def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
+def pair_cue(g: Grid, max_pairs: int = 6000) -> PairCue | None:
     ok = g.pure & np.isfinite(g.normals[..., 0]) & np.isin(g.label, SHADING_IDS) & (g.lum > 1e-4)
     h, w = ok.shape
     n1s, n2s, ys, labs, rcs = [], [], [], [], []
@@ -83,7 +83,7 @@ def _pair_cue(g: _Grid, max_pairs: int = 6000) -> _PairCue | None:
     kept = np.bincount(region)[region]
     weight = np.minimum(total, PAIRS_PER_REGION) / kept * PAIR_CLASS_WEIGHT[lab]
     z = np.fmin(g.points[rc[:, 0], rc[:, 1], 2], g.points[rc[:, 2], rc[:, 3], 2])
-    return _PairCue(n1, n2, y, lab, rc, weight, z)
+    return PairCue(n1, n2, y, lab, rc, weight, z)
 
 
 PAIRS_PER_REGION = 6
@@ -97,50 +97,50 @@ PAIRS_KEPT_PER_REGION = 24
 PAIR_CLASS_WEIGHT = np.ones(256)
 PAIR_CLASS_WEIGHT[[7, 8]] = 0.05
 PAIR_CLASS_WEIGHT[[26, 27, 28, 29, 30, 31]] = 0.25
-_KS = np.array([0.85, 0.7, 0.55, 0.42, 0.3, 0.2])  # sky shares tried with a sun
-_GAMMAS = np.array([0.15, 0.3, 0.5])  # ground bounce ratios tried
+KS = np.array([0.85, 0.7, 0.55, 0.42, 0.3, 0.2])  # sky shares tried with a sun
+GAMMAS = np.array([0.15, 0.3, 0.5])  # ground bounce ratios tried
 _SCALE = 0.15  # robust loss scale (log units)
 _SHADOWED_PAIR = 0.5  # loss for explaining a pair as lying in a cast shadow (ambient only)
 
 
-def _rho(res: np.ndarray) -> np.ndarray:
+def rho(res: np.ndarray) -> np.ndarray:
     return np.log1p((res / _SCALE) ** 2)
 
 
-def _pair_none(cue: _PairCue) -> tuple[np.ndarray, float]:
+def pair_none(cue: PairCue) -> tuple[np.ndarray, float]:
     """Per-pair losses of the best ambient-only model, and its ground ratio."""
     best = None
-    for gm in _GAMMAS:
+    for gm in GAMMAS:
         h1 = gm + (1 - gm) * (0.5 + 0.5 * cue.n1[:, 2])
         h2 = gm + (1 - gm) * (0.5 + 0.5 * cue.n2[:, 2])
-        loss = _rho(cue.y - np.log(h1 / h2))
+        loss = rho(cue.y - np.log(h1 / h2))
         if best is None or loss @ cue.weight < best[0] @ cue.weight:
             best = (loss, float(gm))
     return best
 
 
-def _pair_sun(t: dict, az_deg: float, el_deg: float) -> tuple[np.ndarray, np.ndarray]:
-    """The sun's light on each end of the pairs (float32 terms ``t`` of :func:`_pair_fit`),
+def pair_sun(t: dict, az_deg: float, el_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sun's light on each end of the pairs (float32 terms ``t`` of :func:`pair_fit`),
     relative to an up-facing surface's."""
-    d = _direction(az_deg, el_deg).astype(np.float32)
+    d = sun_direction_of(az_deg, el_deg).astype(np.float32)
     return np.maximum(t["n1"] @ d, 0) / d[2], np.maximum(t["n2"] @ d, 0) / d[2]
 
 
-def _pair_fit(cue: _PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> tuple[float, float, float]:
+def pair_fit(cue: PairCue, none: np.ndarray, az_deg: float, el_deg: float) -> tuple[float, float, float]:
     """(gain in nats per pair over the ambient-only model, sky share, ground ratio) of the best
     sunny model for that sun direction. A pair may instead lie in a cast shadow (ambient only,
     at a small extra cost), so shadowed objects do not speak against the sun."""
     t = cue.terms
     if not t:  # the sky's part of each end's light, k * ambient(n), for every (k, ground ratio)
-        k, gm = _KS[:, None, None], _GAMMAS[None, :, None]
+        k, gm = KS[:, None, None], GAMMAS[None, :, None]
         for name, n in (("kh1", cue.n1), ("kh2", cue.n2)):
             t[name] = (k * (gm + (1 - gm) * (0.5 + 0.5 * n[:, 2])[None, None, :])).astype(np.float32)
-        t["sun_share"] = (1 - _KS[:, None, None]).astype(np.float32)
+        t["sun_share"] = (1 - KS[:, None, None]).astype(np.float32)
         t["n1"], t["n2"], t["y"] = cue.n1.astype(np.float32), cue.n2.astype(np.float32), cue.y.astype(np.float32)
-    s1, s2 = _pair_sun(t, az_deg, el_deg)
+    s1, s2 = pair_sun(t, az_deg, el_deg)
     e1 = np.maximum(t["kh1"] + t["sun_share"] * s1, np.float32(1e-4))
     e2 = np.maximum(t["kh2"] + t["sun_share"] * s2, np.float32(1e-4))
-    loss = _rho(t["y"] - np.log(e1 / e2))
+    loss = rho(t["y"] - np.log(e1 / e2))
     loss = np.minimum(loss, (none + _SHADOWED_PAIR).astype(np.float32)).astype(np.float64) @ cue.weight
     i, j = np.unravel_index(int(np.argmin(loss)), loss.shape)
-    return float((none @ cue.weight - loss[i, j]) / cue.weight.sum()), float(_KS[i]), float(_GAMMAS[j])
+    return float((none @ cue.weight - loss[i, j]) / cue.weight.sum()), float(KS[i]), float(GAMMAS[j])

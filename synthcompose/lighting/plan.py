@@ -23,9 +23,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from ..labels import label_id
-from .light import _LUT, GROUND_IDS
+from synthcompose.camera import Camera
+from synthcompose.labels import label_id
+
+from .light import GROUND_IDS, LEVEL_LUT
 
 ROAD, SIDEWALK, STANDING = label_id("road"), label_id("sidewalk"), label_id("static")
 
@@ -158,7 +159,7 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     v = (camera.fy * o[1] / zo + camera.v0).astype(np.float32)
     inside = np.isfinite(u) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
     u, v = np.where(inside, u, -10.0).astype(np.float32), np.where(inside, v, -10.0).astype(np.float32)
-    lin = cv2.remap(cv2.LUT(rgb, _LUT), u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    lin = cv2.remap(cv2.LUT(rgb, LEVEL_LUT), u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     seen = cv2.remap(depth.astype(np.float32), u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
                      borderValue=float("nan"))
     plane_lab = cv2.remap(label_ids, u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)

@@ -165,18 +165,18 @@ def _levels(plan: GroundPlan, step: float):
         c = plan.lin[sel]
         if lit.sum() >= 100:
             levels.append((int(k), float(np.exp(np.median(v[lit])))))
-            lit_acc += _unit(c[lit].mean(axis=0)) * lit.sum()
+            lit_acc += unit_vector(c[lit].mean(axis=0)) * lit.sum()
         if step > 0 and (~lit).sum() >= 100 and lit.sum() >= 100:
             steps.append(float(np.median(v[~lit]) - np.median(v[lit])))
             weights.append(min(int(lit.sum()), int((~lit).sum())))
-            sh_acc += _unit(c[~lit].mean(axis=0)) * (~lit).sum()
+            sh_acc += unit_vector(c[~lit].mean(axis=0)) * (~lit).sum()
     ratio = float(np.average(steps, weights=weights)) if steps else 0.0
-    lit_rgb = tuple(float(t) for t in _unit(lit_acc)) if lit_acc.any() else (1.0, 1.0, 1.0)
-    shadow_rgb = tuple(float(t) for t in _unit(sh_acc)) if sh_acc.any() else lit_rgb
+    lit_rgb = tuple(float(t) for t in unit_vector(lit_acc)) if lit_acc.any() else (1.0, 1.0, 1.0)
+    shadow_rgb = tuple(float(t) for t in unit_vector(sh_acc)) if sh_acc.any() else lit_rgb
     return tuple(levels), ratio, lit_rgb, shadow_rgb, (n_lit / n_all if n_all else 1.0)
 
 
-def _unit(c) -> np.ndarray:
+def unit_vector(c) -> np.ndarray:
     c = np.maximum(np.asarray(c, np.float64), 1e-6)
     return c / float(c @ LUM)
 
@@ -247,4 +247,4 @@ def colours(ps: PlanSun, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarr
     shadowed the sun's, the lit ground's the ground's."""
     lit, shade = np.asarray(ps.lit_rgb), np.asarray(ps.shadow_rgb)
     sun = np.maximum(lit - shade * np.exp(delta), 1e-3)
-    return _unit(shade), _unit(sun), _unit(lit)
+    return unit_vector(shade), unit_vector(sun), unit_vector(lit)

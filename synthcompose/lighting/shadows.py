@@ -7,8 +7,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from .grid import _Grid
+from synthcompose.camera import Camera
+
+from .grid import Grid
 from .light import GROUND_IDS, OCCLUDER_IDS
 
 CELL = 0.25  # height-map cell, metres
@@ -19,7 +20,7 @@ _PAD = int(math.ceil(30.0 / CELL)) + 2
 
 
 @dataclass(eq=False)
-class _ShadowCue:
+class ShadowCue:
     """Ground samples, and their occluders' horizons computed per azimuth on demand."""
 
     samples: np.ndarray  # (N, 3) vehicle points of ground cells
@@ -54,7 +55,7 @@ class _ShadowCue:
         return shadow, shadow | ((horizon_hi <= lit_tan) & (seen >= need))
 
 
-def _march(cue: _ShadowCue, a: float, steps: np.ndarray | None = None):
+def _march(cue: ShadowCue, a: float, steps: np.ndarray | None = None):
     """Horizon tangents of the samples towards azimuth ``a`` (radians) over the march steps."""
     hm, hm_hi, nx, ny = cue.maps
     fx0, fy0 = cue.cells
@@ -81,7 +82,7 @@ def _march(cue: _ShadowCue, a: float, steps: np.ndarray | None = None):
     return horizon, horizon_hi, seen
 
 
-def _height_map(g: _Grid, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, occluder_ids):
+def _height_map(g: Grid, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, occluder_ids):
     """Max height of occluder points per ground-plan cell (V frame), 3x3 dilated: as seen, and
     raised to at least :data:`UNSEEN_TOP` (or 8 m more) where the occluder runs out of the top of
     the image (its top is unseen)."""
@@ -124,7 +125,7 @@ MARKING_WIDTH = 1.75  # metres: brighter ground narrower than this is paint or k
 _PLAN_CELL = 0.25
 
 
-def _markings(g: _Grid, rr: np.ndarray, cc: np.ndarray, camera: Camera) -> np.ndarray:
+def _markings(g: Grid, rr: np.ndarray, cc: np.ndarray, camera: Camera) -> np.ndarray:
     """Bool per ground cell (rr, cc): part of a bright structure narrower than
     :data:`MARKING_WIDTH` on the ground plan (lane markings, kerbstones) - a white top-hat of the
     log luminance, per class, on a plan grid. Lit patches are wider and stay."""
@@ -150,7 +151,7 @@ def _markings(g: _Grid, rr: np.ndarray, cc: np.ndarray, camera: Camera) -> np.nd
 
 
 @dataclass(frozen=True, eq=False)
-class _Occluders:
+class Occluders:
     """The height maps of everything standing on the ground, and the camera's view borders."""
 
     maps: tuple[np.ndarray, np.ndarray, int, int]  # flat maps (seen, unseen tops raised), nx, ny
@@ -159,19 +160,19 @@ class _Occluders:
     top: float  # height (m) above which nothing is assumed to stand
 
     @classmethod
-    def build(cls, g: _Grid, label_ids: np.ndarray, depth: np.ndarray, camera: Camera) -> "_Occluders":
+    def build(cls, g: Grid, label_ids: np.ndarray, depth: np.ndarray, camera: Camera) -> "Occluders":
         (hm, hm_hi), origin = _height_map(g, label_ids, depth, camera, OCCLUDER_IDS)
         finite = hm_hi[hm_hi > -1e3]
         top = float(min(np.max(finite), 25.0)) if finite.size else 0.0
         return cls((hm.ravel(), hm_hi.ravel(), hm.shape[0], hm.shape[1]), origin, _view_edges(camera), top)
 
     def cue(self, pts: np.ndarray, camera: Camera, lin: np.ndarray | None = None,
-            cls: np.ndarray | None = None) -> _ShadowCue:
+            cls: np.ndarray | None = None) -> ShadowCue:
         """Shadow queries for vehicle-frame points ``pts`` (N, 3)."""
         (x0, y0), (e_left, e_right) = self.origin, self.edges
         rel_x, rel_y = pts[:, 0] - camera.x, pts[:, 1] - camera.y
         n = len(pts)
-        return _ShadowCue(
+        return ShadowCue(
             pts, np.zeros(n), np.zeros((n, 3)) if lin is None else lin, np.zeros(n, np.uint8) if cls is None else cls,
             self.maps,
             (np.clip((pts[:, 0] - x0) / CELL, 0, None).astype(np.float32)[:, None],
@@ -180,7 +181,7 @@ class _Occluders:
             self.top)
 
 
-def _ground_cells(g: _Grid, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+def ground_cells(g: Grid, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
     """Cells of pure ground (:data:`GROUND_IDS`) with a point and some light, facing up (not kerb
     faces; nan normals fail too), within 45 m of the camera on the ground plan; and every
     cell's distance from the camera on the ground plan."""
@@ -190,8 +191,8 @@ def _ground_cells(g: _Grid, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
     return ground, dist
 
 
-def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 2000) -> _ShadowCue | None:
-    ground, _ = _ground_cells(g, camera)
+def shadow_cue(g: Grid, occ: Occluders, camera: Camera, max_samples: int = 2000) -> ShadowCue | None:
+    ground, _ = ground_cells(g, camera)
     ground &= np.abs(g.points[..., 1] - camera.y) < 48.0
     rr, cc = np.nonzero(ground)
     if len(rr) < 200:
@@ -228,7 +229,7 @@ def _shadow_cue(g: _Grid, occ: _Occluders, camera: Camera, max_samples: int = 20
 
 
 @dataclass(frozen=True)
-class _Mixture:
+class Mixture:
     """Two brightness levels of the ground: lit (per class) and shadowed (shared log ratio)."""
 
     delta: float  # log(shadow / lit)
@@ -241,7 +242,7 @@ class _Mixture:
 _OUTLIER = 0.04 / 4.0  # density of the uniform outlier component over rel in [-2.5, 1.5]
 
 
-def _mixture(cue: _ShadowCue, iterations: int = 30) -> _Mixture:
+def fit_mixture(cue: ShadowCue, iterations: int = 30) -> Mixture:
     """EM fit of a lit level mu_c per class, a shared shadow step delta, a shared width and a
     uniform outlier component to the ground samples' log luminance; the best of a few starts."""
     r, cls = cue.rel, cue.cls
@@ -283,10 +284,10 @@ def _mixture(cue: _ShadowCue, iterations: int = 30) -> _Mixture:
     mu1 = np.array([np.median(r[inv == j]) for j in range(len(classes))])[inv]
     s1 = float(np.clip(np.sqrt(np.mean((r - mu1) ** 2)), 0.03, 1.0))
     ll1 = float(np.log(dens(r, mu1, s1) + _OUTLIER).mean())
-    return _Mixture(delta, share, sigma, ll2 - ll1, post)
+    return Mixture(delta, share, sigma, ll2 - ll1, post)
 
 
-def _shadow_score(cue: _ShadowCue, mix: _Mixture, shadow: np.ndarray, known: np.ndarray) -> float:
+def shadow_score(cue: ShadowCue, mix: Mixture, shadow: np.ndarray, known: np.ndarray) -> float:
     """Log-likelihood ratio (nats per ground sample) of the predicted shadow mask against
     shadows that could be anywhere: > 0 where the prediction agrees with the dark samples.
     Samples whose state the visible scene cannot tell count zero."""

@@ -15,7 +15,7 @@ DEG = np.pi / 180.0
 ELBOW_CLEAR_M = 0.065
 
 
-def _r(x: float, nd: int = 3) -> float:
+def round_to(x: float, nd: int = 3) -> float:
     return round(float(x), nd)
 
 
@@ -52,7 +52,7 @@ def pocket_arm(b: PoseBuilder, side: str, rng: np.random.Generator) -> dict:
     target = np.array([hip[0] + front[0], hip[1] + sgn * (info.width_at(z) - rest_y), z])
     bend = b.limb((f"upperarm01.{side}", f"lowerarm01.{side}", f"wrist.{side}"), target,
                   np.array([-0.7, sgn * 1.0, -0.2]), 25 * DEG)
-    return {"elbow_deg": _r(bend / DEG, 1)}
+    return {"elbow_deg": round_to(bend / DEG, 1)}
 
 
 def phone_arm(b: PoseBuilder, side: str, rng: np.random.Generator) -> dict:
@@ -62,7 +62,7 @@ def phone_arm(b: PoseBuilder, side: str, rng: np.random.Generator) -> dict:
     target = shoulder + np.array([rng.uniform(0.22, 0.28), -sgn * rng.uniform(0.05, 0.11), -rng.uniform(0.24, 0.32)]) * s
     bend = b.limb((f"upperarm01.{side}", f"lowerarm01.{side}", f"wrist.{side}"), target,
                   np.array([-0.3, sgn * 1.0, -0.8]), 30 * DEG)
-    return {"elbow_deg": _r(bend / DEG, 1)}
+    return {"elbow_deg": round_to(bend / DEG, 1)}
 
 
 def turn_head(b: PoseBuilder, yaw: float, pitch: float) -> None:

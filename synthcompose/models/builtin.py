@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..colour import srgb_to_linear
-from .mesh import MeshPart, _part_from_trimesh
+from synthcompose.colour import srgb_to_linear
+
+from .mesh import MeshPart, part_from_trimesh
 
 #: the built-in models' files, shipped in the package (a wheel alone can draw them)
 _BUILTIN_FILES = Path(__file__).resolve().parent.parent / "builtin"
@@ -17,7 +18,7 @@ def _coloured(mesh, rgb_srgb, metallic=0.0, roughness=0.6, smooth=True) -> MeshP
     import trimesh
 
     m = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    part = _part_from_trimesh(m, smooth)
+    part = part_from_trimesh(m, smooth)
     n = len(part.positions)
     col = np.tile(np.append(srgb_to_linear(np.asarray(rgb_srgb, np.float32)), 1.0), (n, 1)).astype(np.float32)
     return MeshPart(part.positions, part.normals, part.uvs, col,

@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..colour import srgb_to_linear
-from ..errors import ModelError
+from synthcompose.colour import srgb_to_linear
+from synthcompose.errors import ModelError
+
 from .builtin import BUILTINS
-from .mesh import _AXES, _TANGENT_ALIAS, BUILTIN_PREFIX, MeshPart, Model, _finish_part, _part_from_trimesh
+from .mesh import AXES, BUILTIN_PREFIX, TANGENT_ALIAS, MeshPart, Model, finish_part, part_from_trimesh
 
 # trimesh drops a glTF's TANGENT attribute and normalTexture.scale; a file with normal maps is
 # handed to it with its JSON edited in memory: TANGENT also under this name (trimesh keeps
@@ -72,7 +73,7 @@ def _normal_mapped(header: dict) -> dict[str, float]:
         for prim in (mesh.get("primitives") or []) if isinstance(mesh, dict) else []:
             attrs = prim.get("attributes") if isinstance(prim, dict) else None
             if isinstance(attrs, dict) and "TANGENT" in attrs:
-                attrs[_TANGENT_ALIAS] = attrs["TANGENT"]
+                attrs[TANGENT_ALIAS] = attrs["TANGENT"]
     return scales
 
 
@@ -111,7 +112,7 @@ def _load_trimesh(path: Path) -> list[MeshPart]:
             linear = None
             if scales and mesh.metadata.get("node") in scene.graph.nodes:
                 linear = np.asarray(scene.graph[mesh.metadata["node"]][0], np.float64)[:3, :3]
-            parts.append(_part_from_trimesh(mesh, smooth, scales, linear))
+            parts.append(part_from_trimesh(mesh, smooth, scales, linear))
     except ModelError:
         raise
     except OSError as exc:  # Pillow decodes a texture only when it is used
@@ -154,7 +155,7 @@ def _load_assimp(path: Path) -> list[MeshPart]:
                 if diffuse is not None and len(diffuse) >= 3:
                     color[:3] = srgb_to_linear(np.asarray(diffuse[:3], np.float32))
                 n = len(pos)
-                parts.append(_finish_part(pos, nrm, np.zeros((n, 2)), np.tile(color, (n, 1)),
+                parts.append(finish_part(pos, nrm, np.zeros((n, 2)), np.tile(color, (n, 1)),
                                           np.tile([0.0, 0.6], (n, 1)), faces, None))
             return parts
     except ModelError:
@@ -163,12 +164,12 @@ def _load_assimp(path: Path) -> list[MeshPart]:
         raise ModelError(path, f"assimp cannot read it ({exc})") from None
 
 
-def _axis_matrix(up: str, forward: str, path) -> np.ndarray:
+def axis_matrix(up: str, forward: str, path) -> np.ndarray:
     """(3, 3) rotation taking the file's axes to O (forward -> +x, up -> +z)."""
-    if up not in _AXES or forward not in _AXES:
-        raise ModelError(path, f"axes must be one of {sorted(_AXES)}, got up={up!r} forward={forward!r}")
-    iu, su = _AXES[up]
-    iff, sf = _AXES[forward]
+    if up not in AXES or forward not in AXES:
+        raise ModelError(path, f"axes must be one of {sorted(AXES)}, got up={up!r} forward={forward!r}")
+    iu, su = AXES[up]
+    iff, sf = AXES[forward]
     if iu == iff:
         raise ModelError(path, f"up {up!r} and forward {forward!r} must be different axes")
     r = np.zeros((3, 3))
@@ -178,7 +179,7 @@ def _axis_matrix(up: str, forward: str, path) -> np.ndarray:
     return r
 
 
-def _normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], key: str, path) -> Model:
+def normalise(parts: list[MeshPart], rot: np.ndarray, size: dict[str, float], key: str, path) -> Model:
     if not parts:
         raise ModelError(path, "contains no triangles")
     tri = sum(len(p.indices) for p in parts)
@@ -276,7 +277,7 @@ def load_model(path: str, size_key: tuple[tuple[str, float], ...], up: str = "+y
         name = path[len(BUILTIN_PREFIX):]
         if name not in BUILTINS:
             raise ModelError(path, f"unknown builtin model; known: {', '.join(sorted(BUILTINS))}")
-        return _normalise(BUILTINS[name](), np.eye(3), size, key, path)
+        return normalise(BUILTINS[name](), np.eye(3), size, key, path)
     p = Path(path)
     if p.is_dir():
         raise ModelError(p, "is a folder, not a model file")
@@ -285,5 +286,5 @@ def load_model(path: str, size_key: tuple[tuple[str, float], ...], up: str = "+y
     if p.stat().st_size == 0:
         raise ModelError(p, "model file is empty")
     parts = _load_assimp(p) if p.suffix.lower() == ".fbx" else _load_trimesh(p)
-    return _normalise(parts, _axis_matrix(up, forward, p), size, key, p)
+    return normalise(parts, axis_matrix(up, forward, p), size, key, p)
 

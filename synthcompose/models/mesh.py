@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..colour import srgb_to_linear
+from synthcompose.colour import srgb_to_linear
 
 #: prefix of a model built in code rather than read from a file
 BUILTIN_PREFIX = "builtin:"
@@ -28,8 +28,8 @@ _PLATE = re.compile(r"licen[cs]e|plate", re.IGNORECASE)
 NEUTRAL_PLATE = (0.55, 0.55, 0.52, 1.0)
 #: the name a glTF's TANGENT attribute is handed to trimesh under (:mod:`.load`; trimesh keeps
 #: attributes whose name starts with "_")
-_TANGENT_ALIAS = "_SYNTHCOMPOSE_TANGENT"
-_AXES = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
+TANGENT_ALIAS = "_SYNTHCOMPOSE_TANGENT"
+AXES = {"+x": (0, 1.0), "-x": (0, -1.0), "+y": (1, 1.0), "-y": (1, -1.0), "+z": (2, 1.0), "-z": (2, -1.0)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,7 +142,7 @@ def _orthonormal_tangents(tan, w, normals) -> np.ndarray:
 def _file_tangents(mesh, linear: np.ndarray | None) -> np.ndarray | None:
     """The file's own TANGENT attribute (see :func:`_load_trimesh`) taken through the node
     transform ``linear`` (3, 3) that trimesh applied to the positions, or None."""
-    tan = mesh.vertex_attributes.get(_TANGENT_ALIAS)
+    tan = mesh.vertex_attributes.get(TANGENT_ALIAS)
     if tan is None or linear is None:
         return None
     tan = np.asarray(tan, np.float64)
@@ -152,7 +152,7 @@ def _file_tangents(mesh, linear: np.ndarray | None) -> np.ndarray | None:
     return np.concatenate([tan[:, :3] @ np.asarray(linear, np.float64).T, w[:, None]], axis=1)
 
 
-def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | None = None,
+def part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | None = None,
                        linear: np.ndarray | None = None) -> MeshPart:
     """Convert one trimesh.Trimesh (transform already applied) to a MeshPart.
 
@@ -227,12 +227,12 @@ def _part_from_trimesh(mesh, smooth: bool, normal_scales: dict[str, float] | Non
     name = ""
     if isinstance(visual, trimesh.visual.texture.TextureVisuals) and visual.material is not None:
         name = str(getattr(visual.material, "name", "") or "")
-    return _finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture,
+    return finish_part(mesh.vertices, normals, uvs, colors, metal_rough, mesh.faces, texture,
                         tangents=tangents, normal_texture=normal_texture, normal_scale=normal_scale, plate=plate,
                         name=name)
 
 
-def _finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
+def finish_part(positions, normals, uvs, colors, material, faces, texture, *, tangents=None,
                  normal_texture=None, normal_scale=1.0, plate=None, label=None, name="") -> MeshPart:
     colors = np.asarray(colors, np.float32).copy()
     glass = colors[:, 3] < GLASS_ALPHA

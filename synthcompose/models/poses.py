@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arms import DEG, SPINE, _r, hand_of, hang_arm, phone_arm, pocket_arm, turn_head
+from .arms import DEG, SPINE, hand_of, hang_arm, phone_arm, pocket_arm, round_to, turn_head
 from .gait import place_feet, walking
-from .mesh import MeshPart, _finish_part
+from .mesh import MeshPart, finish_part
 from .rig import SIDES, PoseBuilder, rot, unit
 from .skin import Skin
 
@@ -74,7 +74,7 @@ def box(centre, axes, half, rgb) -> MeshPart:
     pos, nrm = np.array(pos), np.array(nrm)
     tri = _outward(pos, np.array(tri), nrm)
     n = len(pos)
-    return _finish_part(pos, nrm, np.zeros((n, 2)), np.tile([*rgb, 1.0], (n, 1)),
+    return finish_part(pos, nrm, np.zeros((n, 2)), np.tile([*rgb, 1.0], (n, 1)),
                         np.tile([0.0, 0.5], (n, 1)), tri, None, name="prop")
 
 
@@ -113,9 +113,9 @@ def standing(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, tuple | No
     b.spread(SPINE, [0, 1, 0], rng.uniform(-2, 4) * DEG)
     b.spread(SPINE, [0, 0, 1], rng.uniform(-5, 5) * DEG)
     desc = {"pose": "standing", "variant": variant, "weight_on": "left" if stance == "L" else "right",
-            "hip_roll_deg": _r(roll / DEG, 2), "body_yaw_deg": _r(yaw / DEG, 2), "hip_shift_m": _r(shift),
-            "knee_deg": {("left" if side == "L" else "right"): _r(k / DEG, 1) for side, k in knees.items()},
-            "free_foot_m": [_r(v) for v in feet[free][0]]}
+            "hip_roll_deg": round_to(roll / DEG, 2), "body_yaw_deg": round_to(yaw / DEG, 2), "hip_shift_m": round_to(shift),
+            "knee_deg": {("left" if side == "L" else "right"): round_to(k / DEG, 1) for side, k in knees.items()},
+            "free_foot_m": [round_to(v) for v in feet[free][0]]}
     prop, hand_side = None, None
     side = "L" if rng.random() < 0.5 else "R"
     other = "R" if side == "L" else "L"
@@ -130,21 +130,21 @@ def standing(b: PoseBuilder, rng: np.random.Generator) -> tuple[dict, tuple | No
     elif variant == "bag":
         rgb = BAG_RGB[int(rng.integers(len(BAG_RGB)))]
         ab = hang_arm(b, side, rng.uniform(-4, 6) * DEG, rng.uniform(4, 12) * DEG, rng.uniform(1, 4) * DEG, 0.13)
-        arms[side] = {"arm": "bag", "abduction_deg": _r(ab / DEG, 1)}
+        arms[side] = {"arm": "bag", "abduction_deg": round_to(ab / DEG, 1)}
         prop, hand_side = ("bag", side, rgb), side
     for k in ("L", "R"):
         if k not in arms:
             swing, flex = rng.uniform(-6, 8) * DEG, rng.uniform(6, 22) * DEG
             ab = hang_arm(b, k, swing, flex, rng.uniform(0.5, 5) * DEG, 0.05)
-            arms[k] = {"arm": "hanging", "swing_deg": _r(swing / DEG, 1), "elbow_deg": _r(flex / DEG, 1),
-                       "abduction_deg": _r(ab / DEG, 1)}
+            arms[k] = {"arm": "hanging", "swing_deg": round_to(swing / DEG, 1), "elbow_deg": round_to(flex / DEG, 1),
+                       "abduction_deg": round_to(ab / DEG, 1)}
     desc["arms"] = {("left" if k == "L" else "right"): v for k, v in sorted(arms.items())}
     if variant == "phone":
         yaw_h, pitch_h = rng.uniform(-8, 8) * DEG + SIDES[side] * 6 * DEG, rng.uniform(20, 34) * DEG
     else:
         yaw_h, pitch_h = rng.uniform(-35, 35) * DEG, rng.uniform(-6, 10) * DEG
     turn_head(b, yaw_h, pitch_h)
-    desc |= {"head_yaw_deg": _r(yaw_h / DEG, 1), "head_pitch_deg": _r(pitch_h / DEG, 1)}
+    desc |= {"head_yaw_deg": round_to(yaw_h / DEG, 1), "head_pitch_deg": round_to(pitch_h / DEG, 1)}
     return desc, prop, hand_side
 
 

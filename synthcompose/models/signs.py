@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..colour import srgb_to_linear
-from ..errors import ModelError
-from .mesh import MeshPart, Model, _finish_part
+from synthcompose.colour import srgb_to_linear
+from synthcompose.errors import ModelError
+
+from .mesh import MeshPart, Model, finish_part
 
 #: the pole's radius: 76 mm tube (Rohrpfosten)
 POLE_RADIUS = 0.038
@@ -104,7 +105,7 @@ def _plate_parts(plate: Plate, centre_z: float, front_x: float) -> list[MeshPart
     back = front - [PLATE_DEPTH, 0.0, 0.0]
     col, mat = _uniform(n, (1.0, 1.0, 1.0), FACE_MATERIAL)
     col[:, :3] = FACE_ALBEDO
-    face = _finish_part(front, np.tile([1.0, 0.0, 0.0], (n, 1)), uv, col, mat, fan, tex)
+    face = finish_part(front, np.tile([1.0, 0.0, 0.0], (n, 1)), uv, col, mat, fan, tex)
     # rim: one quad per outline edge, flat shaded (its own four corners), normal outwards
     a, b = np.arange(n), (np.arange(n) + 1) % n
     quads = np.stack([front[a], front[b], back[b], back[a]], axis=1)  # (n, 4, 3)
@@ -117,14 +118,14 @@ def _plate_parts(plate: Plate, centre_z: float, front_x: float) -> list[MeshPart
     rim_tri = np.concatenate([np.concatenate([k + [0, 2, 1], k + [0, 3, 2]]),
                               4 * n + fan[:, [0, 2, 1]]]).astype(np.uint32)  # the back faces -x
     col, mat = _uniform(len(rim_pos), BACK_SRGB, BACK_MATERIAL)
-    rim = _finish_part(rim_pos, rim_nrm, np.zeros((len(rim_pos), 2)), col, mat, rim_tri, None)
+    rim = finish_part(rim_pos, rim_nrm, np.zeros((len(rim_pos), 2)), col, mat, rim_tri, None)
     return [face, rim]
 
 
 def _metal(positions, normals, faces) -> MeshPart:
     """A galvanised part (pole, clamp), labelled "pole" as Cityscapes labels a sign's pole."""
     col, mat = _uniform(len(positions), POLE_SRGB, POLE_MATERIAL)
-    return _finish_part(positions, normals, np.zeros((len(positions), 2)), col, mat, faces, None, label=POLE_LABEL)
+    return finish_part(positions, normals, np.zeros((len(positions), 2)), col, mat, faces, None, label=POLE_LABEL)
 
 
 def _tube(radius: float, height: float, sections: int = 20) -> MeshPart:
@@ -167,7 +168,7 @@ def sign_model(plates: tuple[Plate, ...], lower_edge_m: float = 2.0,
     """A pole carrying ``plates`` (the main sign first, then the ones hanging under it), the
     lowest plate's lower edge ``lower_edge_m`` above the ground, at real size; or scaled
     uniformly to ``size`` (one (dimension, metres) pair, as :func:`load_model` takes)."""
-    from .load import _normalise
+    from .load import normalise
 
     if not plates:
         raise ValueError("a sign needs at least one plate")
@@ -196,4 +197,4 @@ def sign_model(plates: tuple[Plate, ...], lower_edge_m: float = 2.0,
     codes = "+".join(p.code for p in plates)
     key = f"sign:{codes}|{lower_edge_m:.3f}|{size}"
     real = (("height", float(max(top, pole_top))),)
-    return _normalise(parts, np.eye(3), dict(size or real), key, f"sign {codes}")
+    return normalise(parts, np.eye(3), dict(size or real), key, f"sign {codes}")

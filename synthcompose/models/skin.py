@@ -19,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
-from .load import _axis_matrix
-from .mesh import MeshPart, Model, _finish_part
+from synthcompose.errors import ModelError
+
+from .load import axis_matrix
+from .mesh import MeshPart, Model, finish_part
 
 _COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
@@ -141,7 +142,7 @@ def read_skin(path: str, up: str, forward: str) -> Skin:
     ibm = _accessor(p, doc, binary, skin["inverseBindMatrices"]).reshape(-1, 4, 4).transpose(0, 2, 1)
     if len(ibm) != len(joints):
         raise ModelError(p, f"{len(ibm)} inverse bind matrices for {len(joints)} joints")
-    axes = _axis_matrix(up, forward, p)
+    axes = axis_matrix(up, forward, p)
     heads = np.linalg.inv(ibm.astype(np.float64))[:, :3, 3] @ axes.T
     mats = doc.get("materials", [])
     parts = []
@@ -232,7 +233,7 @@ def to_model(skin: Skin, posed, key: str, height: float, extra: tuple[MeshPart, 
         n = len(pos)
         col = np.tile(np.asarray(part.color, np.float32), (n, 1))
         mat = np.tile(np.array([part.metallic, part.roughness], np.float32), (n, 1))
-        parts.append(_finish_part(pos, nrm, np.zeros((n, 2)), col, mat, part.indices, None, name=part.name))
+        parts.append(finish_part(pos, nrm, np.zeros((n, 2)), col, mat, part.indices, None, name=part.name))
     parts.extend(extra)
     allpos = np.concatenate([q.positions for q in parts])
     lo, hi = allpos.min(0), allpos.max(0)

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
+from synthcompose.errors import ModelError
+
 from .mesh import Model
 from .poses import draw_pose
 from .skin import Skin, SkinPart, pose_skin, read_skin, skinning_matrices, to_model

@@ -12,37 +12,37 @@ directions), ``traffic`` (a candidate's place in traffic: :class:`Traffic`) and 
 (the traffic rules of a finished pose, part of :func:`check_pose`).
 """
 from .boxes import (
-                    FOOTPRINT_SAMPLES,
-                    _visibility,
-                    footprint_corners,
-                    footprint_grid,
-                    footprints_overlap,
-                    penetration,
-                    pose_matrix,
-                    prefilter,
-                    rays_hit_box,
-                    strict_inside,
+    FOOTPRINT_SAMPLES,
+    footprint_corners,
+    footprint_grid,
+    footprints_overlap,
+    penetration,
+    pose_matrix,
+    prefilter,
+    rays_hit_box,
+    strict_inside,
+    visibility_of,
 )
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
 from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_clearance
 from .road import RoadLine, fit_road_line, road_line, surface_edges
 from .rules import (
-                    ALLOWED_SURFACES,
-                    GROUND_LEVEL,
-                    INLIER_BAND,
-                    KERB_CLEARANCE,
-                    MAX_PENETRATION,
-                    ORIENTATION,
-                    ORIENTATIONS,
-                    POSE_GROUND_SEARCH,
-                    RULE_OF,
-                    Placement,
-                    PlacementResult,
-                    PlacementRules,
-                    Rejection,
-                    box_corners,
-                    label_mask,
+    ALLOWED_SURFACES,
+    GROUND_LEVEL,
+    INLIER_BAND,
+    KERB_CLEARANCE,
+    MAX_PENETRATION,
+    ORIENTATION,
+    ORIENTATIONS,
+    POSE_GROUND_SEARCH,
+    RULE_OF,
+    Placement,
+    PlacementResult,
+    PlacementRules,
+    Rejection,
+    box_corners,
+    label_mask,
 )
 from .search import place_object
 from .street import Street, find_street
@@ -51,7 +51,7 @@ from .traffic import Traffic
 __all__ = [
     "ALLOWED_SURFACES", "FOOTPRINT_SAMPLES", "GROUND_LEVEL", "INLIER_BAND", "KERB_CLEARANCE", "MAX_PENETRATION",
     "ORIENTATION", "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult",
-    "PlacementRules", "PoseTests", "Rejection", "RoadLine", "StereoNoise", "_visibility", "box_corners", "check_pose",
+    "PlacementRules", "PoseTests", "Rejection", "RoadLine", "StereoNoise", "visibility_of", "box_corners", "check_pose",
     "fit_ground", "fit_road_line", "footprint_corners", "footprint_grid", "footprint_support", "footprints_overlap",
     "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix",
     "prefilter", "rays_hit_box", "road_line", "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",

@@ -7,7 +7,8 @@ from typing import Sequence
 import cv2
 import numpy as np
 
-from ..geometry import Frame
+from synthcompose.geometry.depth import Frame
+
 from .rules import OCCLUSION_TOL_ABS, OCCLUSION_TOL_REL, Placement, PlacementRules, box_corners
 
 
@@ -101,20 +102,20 @@ def rays_hit_box(origin: np.ndarray, targets: np.ndarray, m: np.ndarray, extents
     return (tmax >= np.maximum(tmin, 0.0)) & (tmin <= 1.0)
 
 
-def _box_samples(m: np.ndarray, extents) -> np.ndarray:
+def box_samples(m: np.ndarray, extents) -> np.ndarray:
     l, w, h = extents
     g = np.stack(np.meshgrid(np.linspace(-0.5, 0.5, 7) * l, np.linspace(-0.5, 0.5, 5) * w,
                              np.linspace(0.05, 1.0, 6) * h), -1).reshape(-1, 3)
     return g @ m[:3, :3].T + m[:3, 3]
 
 
-def _visibility(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement] = (),
+def visibility_of(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement] = (),
                 noise=None) -> tuple[float, float, float]:
     """(share of box samples inside the image, share of those hidden by the real scene or by
     the ``others`` already placed, projected area of the box in pixels). ``noise``: the frame's
     :class:`~.noise.StereoNoise`; a sample is hidden only where the real depth is nearer by
     more than its band too."""
-    samples = _box_samples(m, extents)
+    samples = box_samples(m, extents)
     opt = frame.to_optical(samples)
     uv = frame.camera.project(opt)
     H, W = frame.shape
@@ -133,13 +134,13 @@ def _visibility(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement
     return float(inside.mean()), float(hidden.mean()), area
 
 
-def _hides_others(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement], rules: PlacementRules,
+def hides_others(frame: Frame, m: np.ndarray, extents, others: Sequence[Placement], rules: PlacementRules,
                   noise=None) -> bool:
     """True when the new box would leave an earlier object more hidden than the rules allow."""
     for i, o in enumerate(others):
         rest = [p for j, p in enumerate(others) if j != i]
-        _, before, _ = _visibility(frame, o.matrix, o.extents, rest, noise)
-        samples = _box_samples(o.matrix, o.extents)
+        _, before, _ = visibility_of(frame, o.matrix, o.extents, rest, noise)
+        samples = box_samples(o.matrix, o.extents)
         newly = rays_hit_box(frame.camera.position, samples, m, extents).mean()
         if min(1.0, before + newly) > rules.max_occluded_fraction:
             return True

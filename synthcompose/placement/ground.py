@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import Frame
+from synthcompose.geometry.depth import Frame
+
 from .rules import INLIER_BAND, label_mask
 
 

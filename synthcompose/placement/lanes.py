@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import Frame
+from synthcompose.geometry.depth import Frame
+
 from .parked import parked_rows
 from .street import Carriageway, Street
 from .street_lines import SOLID_RUN
@@ -79,7 +80,7 @@ def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
     return frame.cache[key]
 
 
-def _direction(cw: Carriageway, s: float, hand: int) -> int:
+def sun_direction_of(cw: Carriageway, s: float, hand: int) -> int:
     if cw.side != 0:
         return -hand * cw.side
     if cw.centre is None:
@@ -141,7 +142,7 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
         if hi - lo < MIN_LANE:
             continue
         for a, b in _split(lo, hi):
-            out.append(Lane(a, b, "moving", _direction(cw, (a + b) / 2, hand), k))
+            out.append(Lane(a, b, "moving", sun_direction_of(cw, (a + b) / 2, hand), k))
     # a moving lane holding the centre line (its marking dropped as a short stretch of paint)
     # is two lanes, one each way: split there
     centre = cw.centre
@@ -156,7 +157,7 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     # every lane (a parking strip too) goes the way of its side of the centre line
     two_way = cw.side == 0 and centre is not None
     return [Lane(ln.right, ln.left, ln.role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
-                 else _direction(cw, ln.centre, hand), k, ln.kerb) for ln in out]
+                 else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln in out]
 
 
 def _split_at(lane: Lane, s: float) -> list[Lane]:

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
 from .rules import label_mask
 
 #: a line's pixel is brighter than the road this far (metres, on the ground) to both sides
@@ -83,10 +84,10 @@ def _find(frame: Frame) -> Markings:
     wide &= np.minimum(left, right) - side > np.maximum(MIN_CONTRAST, MIN_RATIO * side)
     # paint, not a sunlit gap between shadows: far brighter than most of the road
     wide &= centre >= ZEBRA_BRIGHT * np.percentile(centre, 75)
-    return Markings(_ground(frame, v[line] * 2, u[line] * 2), _ground(frame, v[wide] * 2, u[wide] * 2))
+    return Markings(ground_(frame, v[line] * 2, u[line] * 2), ground_(frame, v[wide] * 2, u[wide] * 2))
 
 
-def _ground(frame: Frame, v: np.ndarray, u: np.ndarray) -> np.ndarray:
+def ground_(frame: Frame, v: np.ndarray, u: np.ndarray) -> np.ndarray:
     """(N, 2) ground-plan points (V) of full-resolution pixels."""
     if not len(v):
         return np.empty((0, 2))

@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
-from .markings import _ground
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
+from .markings import ground_
 from .rules import label_mask
 from .street import Street, to_road
 
@@ -65,7 +66,7 @@ def _vehicle_points(frame: Frame, street: Street) -> tuple[np.ndarray, np.ndarra
     finite = np.isfinite(frame.depth[::4, ::4])
     if frame.labelled:
         v, u = np.nonzero(label_mask([label_id(n) for n in VEHICLES])[lab] & finite)
-        xy = _ground(frame, v * 4, u * 4)
+        xy = ground_(frame, v * 4, u * 4)
         return to_road(xy, street.b, street.q)
     v, u = np.nonzero(finite)
     v, u = v * 4, u * 4
@@ -120,7 +121,7 @@ def _rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
     return out
 
 
-def _grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np.ndarray]:
+def make_grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np.ndarray]:
     """The row's points on a ``cell`` grid (a, s), connected: (count + 1, component labels)."""
     i = ((a - a.min()) / cell).astype(np.int64)
     j = ((s - s.min()) / cell).astype(np.int64)
@@ -131,13 +132,13 @@ def _grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np.nda
 
 def _blobs(a: np.ndarray, s: np.ndarray) -> int:
     """How many blobs of at least 12 cells (a car or a few) the row's points make."""
-    n, comp = _grid(a, s)
+    n, comp = make_grid(a, s)
     return int((np.bincount(comp.ravel(), minlength=n)[1:] >= 12).sum())
 
 
 def _layout_angle(a: np.ndarray, s: np.ndarray) -> float:
     """Median angle (degrees, 0-90) of the main axes of the row's blobs against the street."""
-    n, comp = _grid(a, s)
+    n, comp = make_grid(a, s)
     angles = []
     for k in range(1, n):
         pi, pj = np.nonzero(comp == k)

@@ -13,19 +13,20 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
 from .boxes import (
-    _box_samples,
-    _hides_others,
-    _visibility,
     box_corners,
+    box_samples,
     footprint_corners,
     footprint_grid,
     footprints_overlap,
+    hides_others,
     penetration,
     rays_hit_box,
     strict_inside,
+    visibility_of,
 )
 from .ground import GroundFit, local_ground
 from .noise import StereoNoise, stereo_noise
@@ -203,7 +204,7 @@ class PoseTests:
         """The visibility rules against the real depth and ``others`` placed before; also
         returns (share of the object inside the image, share hidden)."""
         rules = self.rules
-        in_image, hidden, area = _visibility(self.frame, m, self.extents, others, self.noise)
+        in_image, hidden, area = visibility_of(self.frame, m, self.extents, others, self.noise)
         if hidden > rules.max_occluded_fraction:
             why = Rejection("too much hidden by the scene",
                             f"{hidden:.0%} hidden, at most {rules.max_occluded_fraction:.0%}")
@@ -212,7 +213,7 @@ class PoseTests:
         if visible < rules.min_visible_pixels:
             why = Rejection("too few visible pixels", f"about {visible:.0f} seen, needs {rules.min_visible_pixels}")
             return why, in_image, hidden
-        if others and _hides_others(self.frame, m, self.extents, others, rules, self.noise):
+        if others and hides_others(self.frame, m, self.extents, others, rules, self.noise):
             why = Rejection("would hide an object placed before",
                             f"it would leave one more than {rules.max_occluded_fraction:.0%} hidden")
             return why, in_image, hidden
@@ -223,7 +224,7 @@ class PoseTests:
         placed before, nor one placed before behind this one (beyond SIGN_HIDDEN of it)."""
         cam = self.frame.camera.position
         if self.class_name in SIGNS and others:
-            samples = _box_samples(m, self.extents)
+            samples = box_samples(m, self.extents)
             behind = np.zeros(len(samples), bool)
             for o in others:
                 behind |= rays_hit_box(cam, samples, o.matrix, o.extents)
@@ -231,7 +232,7 @@ class PoseTests:
                 return Rejection("sign hidden behind an inserted object", f"{behind.mean():.0%} of it")
         for o in others:
             if o.class_name in SIGNS:
-                newly = rays_hit_box(cam, _box_samples(o.matrix, o.extents), m, self.extents).mean()
+                newly = rays_hit_box(cam, box_samples(o.matrix, o.extents), m, self.extents).mean()
                 if newly > SIGN_HIDDEN:
                     return Rejection("would hide a sign placed before", f"{newly:.0%} of it")
         return None

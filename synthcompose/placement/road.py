@@ -7,8 +7,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
 from .rules import GROUND_LEVEL, label_mask
 
 

@@ -30,8 +30,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..geometry import Frame, back_project, nearest_in_row, pinhole
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame, back_project, nearest_in_row, pinhole
+from synthcompose.labels import label_id
+
 from .boxes import footprint_corners, pose_matrix
 from .poses import PoseTests, check_pose
 from .rules import (

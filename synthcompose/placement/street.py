@@ -33,8 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
 from .markings import find_markings
 from .road import surface_edges
 from .street_lines import (
@@ -48,10 +49,10 @@ from .street_lines import (
     SOLID_RUN,
     SPAN,
     StreetLine,
-    _axis,
-    _coverage,
-    _drop_rails,
-    _lines,
+    axis_,
+    coverage_,
+    drop_rails,
+    lines_,
     to_road,
 )
 
@@ -170,15 +171,15 @@ def _build(frame: Frame, hand: int) -> Street:
     kerbs = _window(surface_edges(frame, road_ids), frame.camera.x)
     marks = _window(find_markings(frame).lines, frame.camera.x)
     both = np.concatenate([kerbs, marks])
-    b, q = _axis(both[both[:, 0] - frame.camera.x <= AXIS_FAR])
-    kerb_lines = _lines(kerbs, b, q, MIN_KERB_COVER, "kerb")
+    b, q = axis_(both[both[:, 0] - frame.camera.x <= AXIS_FAR])
+    kerb_lines = lines_(kerbs, b, q, MIN_KERB_COVER, "kerb")
     road = _road_profile(frame, b, q)
     crossings = _crossings(find_markings(frame).zebra, b, q,
                            _carriageways(kerb_lines, [], road, hand, _ego_path(frame.camera, b, q))[0])
     if crossings:  # a zebra's stripes are no lane lines
         a = marks[:, 0]
         marks = marks[~np.any([(a >= c.start - 0.5) & (a <= c.end + 0.5) for c in crossings], axis=0)]
-    mark_lines = _drop_rails(_lines(marks, b, q, MIN_MARK_COVER, None))
+    mark_lines = drop_rails(lines_(marks, b, q, MIN_MARK_COVER, None))
     ego = _ego_path(frame.camera, b, q)
     carriageways = _carriageways(kerb_lines, mark_lines, road, hand, ego)
     crossings = [Crossing(c.start, c.end, carriageways[0].right, carriageways[0].left) for c in crossings]
@@ -212,12 +213,12 @@ class _RoadProfile:
 def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     road = frame.label_ids[::4, ::4] == label_id("road")
     v, u = np.nonzero(road & np.isfinite(frame.depth[::4, ::4]))
-    from .markings import _ground
+    from .markings import ground_
 
-    xy = _window(_ground(frame, v * 4, u * 4), frame.camera.x)
+    xy = _window(ground_(frame, v * 4, u * 4), frame.camera.x)
     a, s = to_road(xy, b, q)
     near = (a >= 6) & (a <= 30)
-    occ, s0 = _coverage(a[near], s[near], S_BIN, 0)
+    occ, s0 = coverage_(a[near], s[near], S_BIN, 0)
     # the cells the camera sees: their centres on the ground plane inside the image
     cells_s = s0 + (np.arange(occ.shape[0]) + 0.5) * S_BIN
     cells_a = np.arange(6, 31) + 0.5

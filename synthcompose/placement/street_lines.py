@@ -65,7 +65,7 @@ def to_road(xy: np.ndarray, b: float, q: float) -> tuple[np.ndarray, np.ndarray]
     return x, (y - b * x - q * x * x) * np.cos(np.arctan(b + 2 * q * x))
 
 
-def _coverage(a: np.ndarray, s: np.ndarray, s_bin: float = S_BIN, grow: int = 1) -> tuple[np.ndarray, float]:
+def coverage_(a: np.ndarray, s: np.ndarray, s_bin: float = S_BIN, grow: int = 1) -> tuple[np.ndarray, float]:
     """(S, A) bool occupancy of (a, s) points in bins across and along the street (grown by
     ``grow`` bins across), and the s of bin 0."""
     s0 = -SPAN - 0.5 * FAR * 0.8
@@ -84,7 +84,7 @@ def _coverage(a: np.ndarray, s: np.ndarray, s_bin: float = S_BIN, grow: int = 1)
     return occ, s0
 
 
-def _axis(points: np.ndarray) -> tuple[float, float]:
+def axis_(points: np.ndarray) -> tuple[float, float]:
     """The axis (b, q) that lines the kerb and marking points up along the street: the most
     metres of lines covered, squared per 0.2 m of s (long lines count most)."""
     if len(points) < 20:
@@ -94,7 +94,7 @@ def _axis(points: np.ndarray) -> tuple[float, float]:
 
     def score(b: float, q: float) -> float:
         a, s = to_road(points, b, q)
-        occ, _ = _coverage(a, s, 0.2, 0)
+        occ, _ = coverage_(a, s, 0.2, 0)
         cover = occ.sum(axis=1).astype(np.float64)
         # the ego vehicle drives along its street: a turned axis must line up clearly more
         return float((cover * cover).sum()) * (1.0 - 0.2 * abs(b) / MAX_SLOPE)
@@ -110,7 +110,7 @@ def _refine(points: np.ndarray, b: float, q: float, iterations: int = 2) -> tupl
     """The axis refined by least squares: the strongest lines (points within 0.25 m of each)
     as parallel curves y = b x + q x^2 + c_k, one offset each, the axis shared."""
     for _ in range(iterations):
-        lines = [ln for ln in _lines(points, b, q, SOLID_RUN, "any") if ln.cover >= SOLID_RUN][:6]
+        lines = [ln for ln in lines_(points, b, q, SOLID_RUN, "any") if ln.cover >= SOLID_RUN][:6]
         if not lines:
             break
         _, s = to_road(points, b, q)
@@ -134,12 +134,12 @@ def _refine(points: np.ndarray, b: float, q: float, iterations: int = 2) -> tupl
     return b, q
 
 
-def _lines(points: np.ndarray, b: float, q: float, min_cover: float, kind: str | None) -> list[StreetLine]:
+def lines_(points: np.ndarray, b: float, q: float, min_cover: float, kind: str | None) -> list[StreetLine]:
     """Peaks of the points' offset s, each covered over at least ``min_cover`` metres of a."""
     if len(points) < 10:
         return []
     a, s = to_road(points, b, q)
-    occ, s0 = _coverage(a, s)
+    occ, s0 = coverage_(a, s)
     cover = occ.sum(axis=1) * A_BIN
     out: list[StreetLine] = []
     taken = np.zeros(len(cover), bool)
@@ -172,7 +172,7 @@ def _longest_run(cols: np.ndarray, gap: int = 1) -> int:
     return int((cols[ends] - cols[starts] + 1).max())
 
 
-def _drop_rails(lines: list[StreetLine]) -> list[StreetLine]:
+def drop_rails(lines: list[StreetLine]) -> list[StreetLine]:
     """Lane lines less the pairs of tram rails (two lines a rail gauge apart, neither dashed)."""
     rails = set()
     for i, m in enumerate(lines):

@@ -20,9 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import Frame
-from ..labels import label_id
-from .lanes import Lane, _direction, lane_at, lanes
+from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
+
+from .lanes import Lane, lane_at, lanes, sun_direction_of
 from .parked import parked_rows
 from .road import road_line
 from .rules import KERB_CLEARANCE, Rejection
@@ -131,7 +132,7 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
     all_lanes = lanes(frame, street, hand)
     lane = lane_at(all_lanes, s)
     if lane is None:
-        return _side_street_spot(frame, street, point, extents, mode, rng, jitter, hand)
+        return side_street_spot(frame, street, point, extents, mode, rng, jitter, hand)
     l, w, _ = extents
     cw = street.carriageways[lane.carriageway]
     if lane.role == "none":
@@ -176,7 +177,7 @@ def parking_fit(frame: Frame, street: Street, lane: Lane, extents) -> tuple[str,
     return layout, angle, abs(w * math.cos(angle)) + abs(l * math.sin(angle))
 
 
-def _side_street_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode: str,
+def side_street_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode: str,
                       rng: np.random.Generator, jitter: float, hand: int) -> tuple[np.ndarray, float, Traffic] | Rejection:
     """A vehicle off the street's carriageways: on a side street (an arm of a junction) whose
     direction the kerbs there make clear, in its right (``hand``) half's lane, facing that
@@ -253,7 +254,7 @@ def footway_kerb(frame: Frame, street: Street, point: np.ndarray, hand: int):
         heading = float(street.heading(a))
         n = np.array([-math.sin(heading), math.cos(heading)])
         lane = lane_at(lanes(frame, street, hand), kerb - side * 0.3)
-        direction = lane.direction if lane is not None else _direction(cw, kerb - side * 0.3, hand)
+        direction = lane.direction if lane is not None else sun_direction_of(cw, kerb - side * 0.3, hand)
         return d, -side * n, heading, direction, "footway", "left" if side > 0 else "right"
     line = road_line(frame, np.array([label_id("road")]), point)
     if line is None or line.ambiguous or abs(line.offset) > FOOTWAY_REACH:

@@ -24,19 +24,20 @@ import math
 
 import numpy as np
 
-from ..geometry import Frame, back_project
-from ..labels import label_id
+from synthcompose.geometry.depth import Frame, back_project
+from synthcompose.labels import label_id
+
 from .lanes import lane_at, lanes
 from .rules import GROUND_LEVEL, Rejection, label_mask
 from .street import EGO_HALF_LANE
 from .traffic import (
     SIGN_EDGE,
     Traffic,
-    _side_street_spot,
     footway_kerb,
     hand_of,
     lane_room,
     parking_fit,
+    side_street_spot,
     sign_distance,
     street_of,
 )
@@ -144,7 +145,7 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
     if lane is None:
         if claim.where != "side street":
             return Rejection("not in a lane", f"{s:.2f} m across the street, in no lane")
-        spot = _side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
+        spot = side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
         if isinstance(spot, Rejection):
             return spot
         centre, want, _ = spot
@@ -210,7 +211,7 @@ def lane_yaw_error(frame: Frame, extents, m: np.ndarray, traffic: str = "right-h
     lane = lane_at(lanes(frame, street, hand), s)
     yaw = math.atan2(m[1, 0], m[0, 0])
     if lane is None:
-        spot = _side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
+        spot = side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)
         return None if isinstance(spot, Rejection) else _angle(yaw, spot[1])
     return _angle(yaw, _lane_heading(frame, street, lane, a))
 

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..render.transforms import look_at, perspective
+from synthcompose.render.transforms import look_at, perspective
 
 
 class Orbit:

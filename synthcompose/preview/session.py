@@ -1,7 +1,7 @@
 """The preview's session: what ``synthcompose preview`` shows, without any window (headless, testable).
 
 A :class:`PreviewSession` runs the batch's own stages (:mod:`synthcompose.stages`: prepare,
-place, shade, with the GL context of a :class:`~synthcompose.pipeline.Pipeline`) on one image
+place, shade, with the GL context of a :class:`~synthcompose.run.pipeline.Pipeline`) on one image
 set, up to the compose (nothing is written), keeps the results as a :class:`View`, and turns them into the
 images of each pass (:meth:`PreviewSession.pass_image`, depth as turbo colours), a PLY file
 (:mod:`.export`), and saved placements. Every shown pose is checked against the batch's placement
@@ -19,14 +19,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..colour import linear_to_srgb
-from ..dataset import ImageSetId
-from ..errors import SynthComposeError
-from ..geometry import Frame
-from ..labels import COLOR_LUT
-from ..manifest import Manifest
-from ..placement import Placement, Rejection, check_pose
-from ..saved_poses import (
+from synthcompose.colour import linear_to_srgb
+from synthcompose.errors import SynthComposeError
+from synthcompose.geometry.depth import Frame
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.labels import COLOR_LUT
+from synthcompose.manifest import Manifest
+from synthcompose.placement import Placement, Rejection, check_pose
+from synthcompose.placement.saved_poses import (
     IGNORE_SAVED,
     SavedObject,
     SavedPlacement,
@@ -35,7 +35,8 @@ from ..saved_poses import (
     read_saved,
     write_saved,
 )
-from ..stages import measure_light, place, prepare, shade
+from synthcompose.stages import measure_light, place, prepare, shade
+
 from .export import export_ply
 
 #: the passes the preview shows, in key order (1..9)
@@ -154,8 +155,8 @@ class PreviewSession:
     """One manifest's image sets through the batch's pipeline, one at a time, for viewing."""
 
     def __init__(self, manifest: Manifest, frame: str | None = None, gl=None, gl_backend: str | None = None) -> None:
-        from ..batch import select
-        from ..pipeline import Pipeline
+        from synthcompose.run.batch import select
+        from synthcompose.run.pipeline import Pipeline
 
         self.base = manifest
         self.ids, weights, _ = select(manifest)
@@ -165,7 +166,7 @@ class PreviewSession:
         if frame is not None:
             names = [i.name for i in self.ids]
             if frame not in names:
-                from ..selection import near
+                from synthcompose.run.selection import near
 
                 raise SynthComposeError(f"frame {frame!r} is not among the manifest's image sets "
                                         f"({', '.join(names[:5])}{', ...' if len(names) > 5 else ''})"

@@ -1,6 +1,6 @@
 """``synthcompose preview``: a window for debugging placement (GLFW; ``pip install 'synthcompose[preview]'``).
 
-The window's OpenGL context is the only one: it is wrapped in a :class:`~synthcompose.gl.GLContext`
+The window's OpenGL context is the only one: it is wrapped in a :class:`~synthcompose.render.gl.GLContext`
 and the batch's own Pipeline, Renderer and Composer render into it (:mod:`.session` does the work,
 :mod:`.overlay` the text; this module only shows it and maps keys and the mouse; it imports GLFW lazily).
 
@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SynthComposeError
-from ..gl import GLContext
-from ..manifest import Manifest
-from ..render.transforms import gl_mat4
+from synthcompose.errors import SynthComposeError
+from synthcompose.manifest import Manifest
+from synthcompose.render.gl import GLContext
+from synthcompose.render.transforms import gl_mat4
+
 from . import overlay as ov
 from .export import BOX_EDGES, box_mesh, plane_quad
 from .orbit import Orbit

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import moderngl
 
-from ..gl import GLContext
+from .gl import GLContext
 
 #: a region of interest of more pixels than this is rendered in bands of about this many
 BAND_PIXELS = 1 << 18

@@ -7,9 +7,10 @@ from dataclasses import dataclass, replace
 import moderngl
 import numpy as np
 
-from ..gl import GLContext
-from ..labels import HAS_INSTANCES, label_id
-from ..models import Model
+from synthcompose.labels import HAS_INSTANCES, label_id
+from synthcompose.models import Model
+
+from .gl import GLContext
 from .values import PART_SHIFT
 
 #: the vertex buffer's attributes in order, with their float counts (models and the plane)

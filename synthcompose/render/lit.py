@@ -15,10 +15,11 @@ import cv2
 import moderngl
 import numpy as np
 
-from ..camera import Camera
-from ..gl import GLContext
-from ..models import Model
-from ..plates import plate_image
+from synthcompose.camera import Camera
+from synthcompose.look.plates import plate_image
+from synthcompose.models import Model
+
+from .gl import GLContext
 from .gpu_model import GpuMaps, GpuModel, GroundPlane, mipmapped
 from .shadows import light_range
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4

@@ -10,10 +10,11 @@ from typing import Sequence
 import moderngl
 import numpy as np
 
-from ..camera import Camera
-from ..gl import GLContext
-from ..models import Model
+from synthcompose.camera import Camera
+from synthcompose.models import Model
+
 from .bands import copy_rows, row_bands, viewport, with_apron
+from .gl import GLContext
 from .gpu_model import GpuModel, GroundPlane
 from .lit import LitDraw, bind_inputs, environment, frame_uniforms
 from .shading import PRECISIONS, SHADING, FillPrograms, PerPixel, PerSample, device_shading, framebuffer

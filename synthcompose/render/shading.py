@@ -11,8 +11,9 @@ from typing import Callable, Sequence
 import moderngl
 import numpy as np
 
-from ..gl import GLContext
-from ..models import Model
+from synthcompose.models import Model
+
+from .gl import GLContext
 from .gpu_model import GpuModel
 from .lit import LitDraw
 from .transforms import gl_mat4

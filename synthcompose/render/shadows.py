@@ -11,8 +11,9 @@ from typing import Callable, Sequence
 import moderngl
 import numpy as np
 
-from ..gl import GLContext
-from ..models import Model
+from synthcompose.models import Model
+
+from .gl import GLContext
 from .gpu_model import GpuModel, GroundPlane
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4, look_at, ortho
 from .values import Lighting, RenderObject

@@ -10,10 +10,11 @@ from typing import Sequence
 import moderngl
 import numpy as np
 
-from ..camera import Camera
-from ..gl import GLContext
-from ..lighting.light import Lighting
-from ..models import Model
+from synthcompose.camera import Camera
+from synthcompose.lighting.light import Lighting
+from synthcompose.models import Model
+
+from .gl import GLContext
 
 NEAR, FAR = 0.5, 500.0  # metres, optical z range rendered
 #: a ground plane reaches this far (metres) beyond the object's footprint: past where its

@@ -1,5 +1,5 @@
 """The stages of one image set, each a call with typed inputs and outputs (see
-:mod:`synthcompose.pipeline`, which runs them): :func:`prepare` -> :class:`Prepared`,
+:mod:`synthcompose.run.pipeline`, which runs them): :func:`prepare` -> :class:`Prepared`,
 :func:`place` -> :class:`Placed`, :func:`measure_light` -> :class:`PhotoLight` (only where
 something was placed), :func:`shade` -> :class:`Shaded`, :func:`write_done` /
 :func:`write_skipped` -> :class:`Outcome`."""

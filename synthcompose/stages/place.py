@@ -10,22 +10,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import __version__
-from ..cast import CastDraw, cast_model, cast_rng, draw_entry
-from ..dataset import ImageSetId, input_fingerprint, polygon_instance_counts
-from ..errors import InputError, SynthComposeError
-from ..labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
-from ..lighting import fixed_record
-from ..manifest import Manifest, ObjectSpec
-from ..models import Model, load_model, posable, pose_rng, posed_model
-from ..models.poses import KINDS, WALKING_SHARE
-from ..placement import Placement, PlacementResult, check_pose, frame_noise, place_object
-from ..placement.lanes import lanes
-from ..placement.noise import StereoNoise
-from ..placement.rules import orientation_for, rules_dict
-from ..placement.traffic import hand_of
-from ..record import ImageSetRecord
-from ..saved_poses import SavedPlacement, pose_problem, saved_result
+from synthcompose import __version__
+from synthcompose.cast import CastDraw, cast_model, cast_rng, draw_entry
+from synthcompose.errors import InputError, SynthComposeError
+from synthcompose.io.dataset import ImageSetId, input_fingerprint, polygon_instance_counts
+from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
+from synthcompose.lighting import fixed_record
+from synthcompose.manifest import Manifest, ObjectSpec
+from synthcompose.models import Model, load_model, posable, pose_rng, posed_model
+from synthcompose.models.poses import KINDS, WALKING_SHARE
+from synthcompose.placement import Placement, PlacementResult, check_pose, frame_noise, place_object
+from synthcompose.placement.lanes import lanes
+from synthcompose.placement.noise import StereoNoise
+from synthcompose.placement.rules import orientation_for, rules_dict
+from synthcompose.placement.saved_poses import SavedPlacement, pose_problem, saved_result
+from synthcompose.placement.traffic import hand_of
+from synthcompose.record import ImageSetRecord
+
 from .prepare import Prepared
 from .timing import timed
 

@@ -8,14 +8,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dataset import ImageSet, ImageSetId, read_image_set
-from ..fileio import read_input_bytes
-from ..geometry import Frame, disparity_to_depth
-from ..lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
-from ..lighting.camera import ToneReference
-from ..lighting.plan import completed_labels
-from ..manifest import Manifest
-from ..surfaces import Surfaces, frame_for
+from synthcompose.geometry.depth import Frame, disparity_to_depth
+from synthcompose.io.dataset import ImageSet, ImageSetId, read_image_set
+from synthcompose.io.files import read_input_bytes
+from synthcompose.lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
+from synthcompose.lighting.camera_match import ToneReference
+from synthcompose.lighting.plan import completed_labels
+from synthcompose.manifest import Manifest
+from synthcompose.placement.surfaces import Surfaces, frame_for
+
 from .timing import timed
 
 

@@ -1,7 +1,7 @@
 """Stages 4-5 for the right view: the objects shaded for the left photo, with the same light,
 ground planes, real shadows, camera tones, blur and noise level, rendered from the right camera
 of the stereo pair and composed into the right photo (:func:`shade_right`). The real scene in
-front of them is the left view's, carried to the right camera (:mod:`synthcompose.right_view`),
+front of them is the left view's, carried to the right camera (:mod:`synthcompose.geometry.right_view`),
 so that the pair stays a stereo pair: an object's pixels lie ``fx * baseline / z`` apart in the
 two photos, the disparity the left view writes for them.
 """
@@ -12,12 +12,13 @@ from typing import Sequence
 
 import numpy as np
 
-from ..compose import FRONT_LABELS, Composer, SceneLayers, label_mask
-from ..lighting import CameraMatch
-from ..lighting.light import Lighting
-from ..render import Renderer, RenderObject
-from ..render.values import roi_for
-from ..right_view import carry_to_right
+from synthcompose.compose import FRONT_LABELS, Composer, SceneLayers, label_mask
+from synthcompose.geometry.right_view import carry_to_right
+from synthcompose.lighting import CameraMatch
+from synthcompose.lighting.light import Lighting
+from synthcompose.render import Renderer, RenderObject
+from synthcompose.render.values import roi_for
+
 from .prepare import Prepared
 
 

@@ -11,19 +11,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..appearance import Appearance, appearance_rng, draw_appearance
-from ..camera import Camera
-from ..colour import srgb_to_linear
-from ..compose import Composed, Composer, SceneLayers, label_mask
-from ..fileio import DISPARITY_SCALE
-from ..geometry import Frame, occluder_depth
-from ..labels import label_id
-from ..lighting.camera import object_tones
-from ..manifest import Manifest
-from ..placement import GROUND_LEVEL, Placement
-from ..placement.noise import K_SIGMA
-from ..record import ImageSetRecord
-from ..render import Renderer, RenderObject, amodal_boxes, roi_for
+from synthcompose.camera import Camera
+from synthcompose.colour import srgb_to_linear
+from synthcompose.compose import Composed, Composer, SceneLayers, label_mask
+from synthcompose.geometry.depth import Frame, occluder_depth
+from synthcompose.io.files import DISPARITY_SCALE
+from synthcompose.labels import label_id
+from synthcompose.lighting.camera_match import object_tones
+from synthcompose.look.appearance import Appearance, appearance_rng, draw_appearance
+from synthcompose.manifest import Manifest
+from synthcompose.placement import GROUND_LEVEL, Placement
+from synthcompose.placement.noise import K_SIGMA
+from synthcompose.record import ImageSetRecord
+from synthcompose.render import Renderer, RenderObject, amodal_boxes, roi_for
+
 from .place import Placed
 from .prepare import PhotoLight, Prepared
 from .right import shade_right
@@ -50,7 +51,7 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
 
 
 def occluders_in_rows(depth: np.ndarray, bands: list[slice]) -> np.ndarray:
-    """:func:`~synthcompose.geometry.occluder_depth` of ``depth`` in the rows from the first of
+    """:func:`~synthcompose.geometry.depth.occluder_depth` of ``depth`` in the rows from the first of
     ``bands`` to the last (its holes are filled along rows: the same values there as over the
     whole frame), inf in the others, which the compose does not read."""
     out = np.full(depth.shape, np.inf, np.float32)

@@ -10,15 +10,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..annotations import write_frame_annotations
-from ..dataset import ImageSetId
-from ..errors import SynthComposeError
-from ..fileio import encode_rle
-from ..labels import label_id
-from ..manifest import Manifest
-from ..record import ObjectPose, ObjectRecord, Status
-from ..render import mask_box
-from ..writer import write_outputs, write_record
+from synthcompose.errors import SynthComposeError
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import encode_rle
+from synthcompose.labels import label_id
+from synthcompose.manifest import Manifest
+from synthcompose.record import ObjectPose, ObjectRecord, Status
+from synthcompose.render import mask_box
+from synthcompose.write.annotations import write_frame_annotations
+from synthcompose.write.outputs import write_outputs, write_record
+
 from .place import Placed
 from .shade import Shaded
 from .timing import timed

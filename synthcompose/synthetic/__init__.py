@@ -2,7 +2,7 @@
 
 Each frame is a procedurally drawn street scene ray-cast analytically, one ray per pixel
 centre, in vectorised NumPy, and written in the exact Cityscapes layout (see
-:mod:`synthcompose.dataset`), so the demo and the tests can run on data whose depth, labels
+:mod:`synthcompose.io.dataset`), so the demo and the tests can run on data whose depth, labels
 and instances are known exactly. The disparity written is, by default, what a semi-global
 matcher would measure of that geometry (noise, fattening, holes, calibrated on real
 Cityscapes frames); ``stereo="exact"`` writes the exact one. The photo is, by default, what
@@ -25,10 +25,10 @@ writing   :func:`write_image_set`, :func:`make_sample`: the Cityscapes files
 Everything random comes from the ``rng`` handed to :func:`random_scene` (and the scene's
 ``noise_seed``), so a seed gives byte-identical files.
 """
-from .camera import PHOTO_MODES, camera_look
 from .frame import HOLE_FRACTION, render_scene, render_scene_sunlit
 from .layout import MAX_CAMBER, MAX_HEADING_DEG, MAX_SLOPE, random_camera, random_scene
 from .light import SceneLight
+from .photo import PHOTO_MODES, camera_look
 from .scene import TEXTURES, Box, Pole, StreetScene
 from .stereo import STEREO_MODES, sgm_disparity
 from .streets import STREET_KINDS, StreetKind

@@ -8,9 +8,10 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from ..geometry import depth_to_disparity
-from ..labels import label_id
-from .camera import NOISE_SHARE, PHOTO_MODES, camera_look
+from synthcompose.geometry.depth import depth_to_disparity
+from synthcompose.labels import label_id
+
+from .photo import NOISE_SHARE, PHOTO_MODES, camera_look
 from .raycast import (
     PID_EGO,
     PID_FIRST_OBJECT,

@@ -11,8 +11,9 @@ import math
 
 import numpy as np
 
-from ..camera import Camera
-from ..labels import INSTANCE_FACTOR, label_id
+from synthcompose.camera import Camera
+from synthcompose.labels import INSTANCE_FACTOR, label_id
+
 from .light import SceneLight
 from .scene import RGB, Box, Pole, StreetScene
 from .streets import StreetKind, rotation_z

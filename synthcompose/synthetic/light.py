@@ -73,7 +73,7 @@ class SceneLight:
 
     def lighting(self):
         """The same light as a :class:`synthcompose.render.Lighting`."""
-        from ..lighting.light import Lighting
+        from synthcompose.lighting.light import Lighting
 
         sky, ground, sun = self.rgb()
         t = lambda c: tuple(float(v) for v in c)  # noqa: E731

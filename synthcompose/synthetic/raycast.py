@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Camera
+from synthcompose.camera import Camera
+
 from .scene import Box, Pole, StreetScene
 
 # primitive ids in the id buffer

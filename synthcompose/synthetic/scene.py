@@ -37,8 +37,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..camera import Camera
-from ..labels import INSTANCE_FACTOR, label_id
+from synthcompose.camera import Camera
+from synthcompose.labels import INSTANCE_FACTOR, label_id
 
 if TYPE_CHECKING:
     from .light import SceneLight

@@ -25,9 +25,9 @@ import math
 import cv2
 import numpy as np
 
-from ..camera import Camera
-from ..fileio import DISPARITY_SCALE
-from ..labels import label_id
+from synthcompose.camera import Camera
+from synthcompose.io.files import DISPARITY_SCALE
+from synthcompose.labels import label_id
 
 STEREO_MODES = ("realistic", "exact")
 

@@ -5,9 +5,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dataset import ImageSetId
-from ..fileio import write_json, write_png
-from ..labels import KNOWN_IDS, colorize
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import write_json, write_png
+from synthcompose.labels import KNOWN_IDS, colorize
+
 from .frame import render_scene
 from .layout import random_scene
 from .light import sunny_light

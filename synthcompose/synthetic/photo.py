@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..colour import LUM, linear_to_srgb, srgb_to_linear
+from synthcompose.colour import LUM, linear_to_srgb, srgb_to_linear
 
 PHOTO_MODES = ("realistic", "clean")
 #: tone curve: gamma (in linear light) and exposure ranges, drawn per frame (log-uniform exposure)

@@ -19,10 +19,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .errors import InputError
-from .fileio import read_json, read_png, write_bytes_atomic
-from .labels import COLOR_LUT
-from .record import read_record
+from synthcompose.errors import InputError
+from synthcompose.io.files import read_json, read_png, write_bytes_atomic
+from synthcompose.labels import COLOR_LUT
+from synthcompose.record import read_record
 
 THUMB_WIDTH = 480
 MAX_THUMBS = 300

@@ -27,18 +27,19 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .cast import preload
-from .dataset import ImageSetId, input_fingerprint
+from synthcompose.cast import preload
+from synthcompose.errors import ManifestError, SynthComposeError
+from synthcompose.io.dataset import ImageSetId, input_fingerprint
+from synthcompose.io.files import PART_TAG, write_json
+from synthcompose.manifest import Manifest
+from synthcompose.models import load_model
+from synthcompose.placement.frequency import count_classes, object_weights
+from synthcompose.record import Status, read_record
+from synthcompose.write.outputs import discard_outputs, output_paths
+
 from .engines import BatchError, in_process, process_pool, ray_engine, worker_count
-from .errors import ManifestError, SynthComposeError
-from .fileio import PART_TAG, write_json
-from .frequency import count_classes, object_weights
-from .manifest import Manifest
-from .models import load_model
 from .pipeline import STAGES, Outcome
-from .record import Status, read_record
 from .selection import select_image_sets
-from .writer import discard_outputs, output_paths
 
 log = logging.getLogger("synthcompose")
 
@@ -133,7 +134,7 @@ def completed(manifest: Manifest, ident: ImageSetId) -> Outcome | None:
         return None
     if dict(record.source_fingerprint) != input_fingerprint(manifest.dataset, ident):
         return None  # an input file changed (or the record predates fingerprints)
-    from .saved_poses import saved_is_stale  # saved placements: a placement saved since means redo
+    from synthcompose.placement.saved_poses import saved_is_stale  # saved placements: a placement saved since means redo
     if saved_is_stale(manifest.output, ident, record.placement_file):
         return None
     if record.status == Status.DONE:
@@ -288,7 +289,7 @@ def run_batch(manifest: Manifest, workers: int = 1, progress: bool | None = None
             _consume(stream, summary, bar, show_bar, len(todo), manifest, by_key, on_outcome)
         bar.close()
         summary.outcomes.sort(key=lambda o: o.key)
-        from .annotations import write_coco  # annotations: COCO instances of every done record
+        from synthcompose.write.annotations import write_coco  # annotations: COCO instances of every done record
         try:
             write_coco(manifest.output)
         except SynthComposeError as exc:  # the summary is written whatever the COCO file meets

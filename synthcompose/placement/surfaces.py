@@ -28,11 +28,12 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from .camera import Camera
-from .fileio import decode_disparity
-from .geometry import nearest_in_row
-from .labels import label_id
-from .placement.noise import measure_sigma
+from synthcompose.camera import Camera
+from synthcompose.geometry.depth import nearest_in_row
+from synthcompose.io.files import decode_disparity
+from synthcompose.labels import label_id
+
+from .noise import measure_sigma
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
 #: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
@@ -374,7 +375,7 @@ def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray, models: list) ->
 def frame_for(image_set, depth: np.ndarray | None = None):
     """(placement Frame, Surfaces or None) of an image set: its own labels where it has them,
     else the surfaces found here. The pipeline and the checker build frames the same way."""
-    from .geometry import disparity_to_depth, make_frame
+    from synthcompose.geometry.depth import disparity_to_depth, make_frame
 
     cam = image_set.camera
     if depth is None:

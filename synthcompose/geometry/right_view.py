@@ -10,7 +10,7 @@ right view, the real scene's depth, labels, ground and sun. They are carried fro
 * a right pixel that no left pixel reaches (background the left camera does not see, right of
   a near object; a surface stretched between two columns) takes the layers of the farther of its
   nearest reached neighbours along the row: the background, the same conservative rule as the
-  left view's own holes (:func:`synthcompose.geometry.occluder_depth`);
+  left view's own holes (:func:`synthcompose.geometry.depth.occluder_depth`);
 * labels that belong to the image and not to the scene (our own car, the rectification border:
   ``compose.FRONT_LABELS``) stay where they are in the left image.
 
@@ -23,8 +23,9 @@ from typing import Mapping
 
 import numpy as np
 
-from .camera import Camera
-from .geometry import nearest_in_row
+from synthcompose.camera import Camera
+
+from .depth import nearest_in_row
 
 #: disparity fixed-point steps per pixel in the nearest-surface test
 _STEPS = 256

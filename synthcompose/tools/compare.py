@@ -1,6 +1,6 @@
 """The ``compare-lighting`` command: the same placements under a fixed light and under each
 photo's estimated light, side by side, with the crops of every inserted object next to the
-nearest real object of its class (:func:`synthcompose.look.side_by_side`)."""
+nearest real object of its class (:func:`synthcompose.look.measures.side_by_side`)."""
 from __future__ import annotations
 
 import math
@@ -10,11 +10,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .batch import select
-from .fileio import decode_rle, read_png, write_png
-from .look import side_by_side
-from .pipeline import Pipeline
-from .record import ImageSetRecord, Status, read_record
+from synthcompose.io.files import decode_rle, read_png, write_png
+from synthcompose.look.measures import side_by_side
+from synthcompose.record import ImageSetRecord, Status, read_record
+from synthcompose.run.batch import select
+from synthcompose.run.pipeline import Pipeline
 
 
 def _label(img: np.ndarray, text: str) -> np.ndarray:
@@ -49,7 +49,7 @@ def compare_lighting(manifest, out_dir, limit: int | None = None) -> list[dict]:
     * ``<frame>_before_after.png``       : input | output with the estimated light
     * ``<frame>_zoom.png``               : input | fixed | estimated, cropped around the objects
     * ``<frame>_object<k>_side_by_side.png`` : per object, input | output | the nearest real object
-      of its class in the frame (:func:`synthcompose.look.side_by_side`; labelled frames)
+      of its class in the frame (:func:`synthcompose.look.measures.side_by_side`; labelled frames)
 
     The two full outputs go to ``out_dir/fixed`` and ``out_dir/estimated``. Returns one entry
     per image set (its status and the PNGs written).

@@ -12,7 +12,7 @@ stage is a public call with typed values between them:
     write_done(manifest, ident, shaded)      -> Outcome    files, annotations, the record last
     write_skipped(manifest, ident, placed)   -> Outcome    no object found a place: the record alone
 
-:mod:`synthcompose.batch` decides which image sets, in which process; the preview and
+:mod:`synthcompose.run.batch` decides which image sets, in which process; the preview and
 ``compare-lighting`` call the same stages. A bad image set is reported (a ``failed`` outcome),
 never raised. :meth:`Pipeline.stream` runs the stages on three image sets at once.
 """
@@ -26,17 +26,16 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from .compose import Composer
-from .dataset import ImageSetId
-from .errors import SynthComposeError
-from .frequency import object_weights
-from .gl import GLContext
-from .malloc import release_free_memory, steady_malloc
-from .manifest import Manifest
-from .record import Status
-from .render import Renderer
-from .saved_poses import read_saved
-from .stages import (
+from synthcompose.compose import Composer
+from synthcompose.errors import SynthComposeError
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.manifest import Manifest
+from synthcompose.placement.frequency import object_weights
+from synthcompose.placement.saved_poses import read_saved
+from synthcompose.record import Status
+from synthcompose.render import Renderer
+from synthcompose.render.gl import GLContext
+from synthcompose.stages import (
     Outcome,
     PhotoLight,
     Placed,
@@ -49,6 +48,8 @@ from .stages import (
     write_done,
     write_skipped,
 )
+
+from .malloc import release_free_memory, steady_malloc
 
 log = logging.getLogger("synthcompose")
 

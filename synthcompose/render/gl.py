@@ -15,7 +15,7 @@ from typing import Callable
 import moderngl
 import numpy as np
 
-from .errors import GLContextError, ShaderError
+from synthcompose.errors import GLContextError, ShaderError
 
 BACKENDS = ("egl", "x11")
 _INSTALL_HINT = ("install Mesa's EGL (Debian/Ubuntu: apt-get install libegl1 libegl-mesa0 "

@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .colour import LUM
-from .models import Model
+from synthcompose.colour import LUM
+from synthcompose.models import Model
+
 from .plates import draw_registration
 
 #: (name, share, linear albedo) of car paints

@@ -11,11 +11,12 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from .dataset import ImageSetId
-from .errors import SynthComposeError
-from .manifest import Manifest
+from synthcompose.errors import SynthComposeError
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.manifest import Manifest
+from synthcompose.record import Status
+
 from .pipeline import Outcome, Pipeline
-from .record import Status
 
 log = logging.getLogger("synthcompose")
 

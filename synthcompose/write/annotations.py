@@ -4,7 +4,7 @@ Per image set (written next to the other outputs, before the record):
 
 * ``gtFine/<split>/<city>/<name>_gtFine_polygons.json`` - Cityscapes polygons that draw back
   (cityscapesScripts' ``json2labelImg`` / ``json2instanceImg``) to the written labelIds and
-  instanceIds (:mod:`synthcompose.polygons`). The input's polygons (when it has a polygons
+  instanceIds (:mod:`synthcompose.write.polygons`). The input's polygons (when it has a polygons
   file) are copied, then one entry per inserted object is appended (its visible pixels):
   Cityscapes draws polygons in file order, later ones on top. Without an input polygons file
   the whole frame is described.
@@ -42,14 +42,15 @@ import numpy as np
 from cityscapesscripts.helpers.labels import name2label
 from scipy.spatial.transform import Rotation
 
-from .camera import Camera
-from .dataset import ImageSetId, read_polygons
-from .errors import InputError
-from .fileio import read_json, write_json
-from .labels import label_name
-from .placement import box_corners
+from synthcompose.camera import Camera
+from synthcompose.errors import InputError
+from synthcompose.io.dataset import ImageSetId, read_polygons
+from synthcompose.io.files import read_json, write_json
+from synthcompose.labels import label_name
+from synthcompose.placement import box_corners
+from synthcompose.record import ImageSetRecord, ObjectRecord, read_record
+
 from .polygons import frame_polygons, mask_polygon
-from .record import ImageSetRecord, ObjectRecord, read_record
 
 log = logging.getLogger("synthcompose")
 

@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 from pycocotools import mask as coco_mask
 
-from .errors import InputError, OutputError
+from synthcompose.errors import InputError, OutputError
+
 from .json_layout import dumps_json
 
 #: zlib level for every PNG we write (OpenCV's scale, 0-9). Low: PNG encoding dominates a batch.

@@ -22,21 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .dataset import ImageSetId
-from .errors import InputError
-from .fileio import read_json, write_json
-from .geometry import Frame
-from .labels import label_id
-from .placement import (
-    GROUND_LEVEL,
-    Placement,
-    PlacementResult,
-    _visibility,
-    box_corners,
-    fit_ground,
-    ground_points,
-    pose_matrix,
-)
+from synthcompose.errors import InputError
+from synthcompose.geometry.depth import Frame
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import read_json, write_json
+from synthcompose.labels import label_id
+
+from . import GROUND_LEVEL, Placement, PlacementResult, box_corners, fit_ground, ground_points, pose_matrix, visibility_of
 
 FORMAT = "synthcompose-placement/1"
 #: PreviewSession.load override: draw a random placement even where a file is saved
@@ -167,7 +159,7 @@ def placement_from_pose(frame: Frame, class_name: str, extents, matrix: np.ndarr
     H, W = frame.shape
     row = int(np.clip(round(uv[1]), 0, H - 1)) if np.isfinite(uv).all() else 0
     col = int(np.clip(round(uv[0]), 0, W - 1)) if np.isfinite(uv).all() else 0
-    in_image, hidden, _ = _visibility(frame, m, extents)
+    in_image, hidden, _ = visibility_of(frame, m, extents)
     return Placement(
         class_name=class_name, extents=tuple(float(e) for e in extents),
         vehicle_from_object=tuple(tuple(float(v) for v in r) for r in m),

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..colour import LUM, linear_to_srgb, srgb_to_linear
-from ..labels import category_ids, label_id
+from synthcompose.colour import LUM, linear_to_srgb, srgb_to_linear
+from synthcompose.labels import category_ids, label_id
 
 #: what :func:`estimate_blur` measures on an ideal step edge box-filtered over the pixel
 BOX_EDGE_SIGMA = 0.82
@@ -223,7 +223,7 @@ class ToneReference:
                 road = (float(np.median(px[:, 2])), float(np.median(px[:, 1])))
         if instance_ids is None:
             return cls({}, road)
-        from ..look import instance_tones
+        from synthcompose.look.measures import instance_tones
 
         tones: dict[int, list] = {}
         for inst, t in instance_tones(rgb, instance_ids, None, MIN_REFERENCE_PIXELS, fallback=False).items():

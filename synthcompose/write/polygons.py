@@ -33,7 +33,7 @@ from PIL import Image, ImageDraw
 from scipy.ndimage import find_objects
 from scipy.spatial import cKDTree
 
-from .labels import INSTANCE_FACTOR
+from synthcompose.labels import INSTANCE_FACTOR
 
 Polygon = list[list[int]]
 

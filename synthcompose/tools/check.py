@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .dataset import ImageSetId, labelled_twin, read_image_set
-from .fileio import write_json
-from .geometry import make_frame
-from .labels import label_id
-from .placement import (
+from synthcompose.geometry.depth import make_frame
+from synthcompose.io.dataset import ImageSetId, labelled_twin, read_image_set
+from synthcompose.io.files import write_json
+from synthcompose.labels import label_id
+from synthcompose.placement import (
     FOOTPRINT_SAMPLES,
     MAX_PENETRATION,
     PlacementRules,
@@ -45,12 +45,12 @@ from .placement import (
     road_line,
     scene_clearance,
 )
-from .placement.rules import rules_from
-from .placement.traffic import Traffic
-from .placement.verdict import lane_yaw_error
-from .record import ImageSetRecord, read_record
-from .saved_poses import placement_from_pose
-from .surfaces import frame_for
+from synthcompose.placement.rules import rules_from
+from synthcompose.placement.saved_poses import placement_from_pose
+from synthcompose.placement.surfaces import frame_for
+from synthcompose.placement.traffic import Traffic
+from synthcompose.placement.verdict import lane_yaw_error
+from synthcompose.record import ImageSetRecord, read_record
 
 #: what the checks require (issue: placement a dataset can trust)
 LIMITS = {"footprint_on_allowed": 0.95, "ground_gap_m": 0.05, "penetration_m": MAX_PENETRATION,

@@ -10,8 +10,8 @@ from functools import cached_property
 
 import numpy as np
 
-from .camera import Camera
-from .fileio import decode_disparity, encode_disparity
+from synthcompose.camera import Camera
+from synthcompose.io.files import decode_disparity, encode_disparity
 
 
 def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:

@@ -10,9 +10,9 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
-from .dataset import ImageSetId, find_image_sets, nfc, subfolders
-from .errors import ManifestError
-from .manifest import Manifest
+from synthcompose.errors import ManifestError
+from synthcompose.io.dataset import ImageSetId, find_image_sets, nfc, subfolders
+from synthcompose.manifest import Manifest
 
 #: at most this many selector entries are explained in one error (the rest are counted)
 EXPLAINED = 5

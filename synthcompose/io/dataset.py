@@ -23,10 +23,11 @@ from typing import Any
 import numpy as np
 from cityscapesscripts.helpers.labels import name2label
 
-from .camera import Camera
-from .errors import InputError
-from .fileio import decode_disparity, map_threads, read_json, read_png
-from .labels import KNOWN_IDS
+from synthcompose.camera import Camera
+from synthcompose.errors import InputError
+from synthcompose.labels import KNOWN_IDS
+
+from .files import decode_disparity, map_threads, read_json, read_png
 
 #: ``city_seq_frame_leftImg8bit.png``: a city is any name without "_" (spaces and letters of any
 #: script too: "bad homburg", "münchen"), the sequence and frame numbers are ASCII digits

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from .compose import Composed
-from .dataset import ImageSetId
-from .fileio import map_threads, write_bytes_atomic, write_json, write_png
-from .labels import colorize
+from synthcompose.compose import Composed
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import map_threads, write_bytes_atomic, write_json, write_png
+from synthcompose.labels import colorize
 
 #: the PNG row filter of each kind of file written (fileio.PNG_FILTERS: the same pixels, less CPU)
 PNG_FILTER_OF = {"rgb": "paeth", "right": "paeth", "disparity": "paeth", "labelIds": "up", "instanceIds": "up",

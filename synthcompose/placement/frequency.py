@@ -13,10 +13,10 @@ from typing import Sequence
 
 import numpy as np
 
-from .dataset import ImageSetId
-from .errors import InputError
-from .fileio import read_json, read_png
-from .labels import INSTANCE_FACTOR, label_name
+from synthcompose.errors import InputError
+from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import read_json, read_png
+from synthcompose.labels import INSTANCE_FACTOR, label_name
 
 
 def count_classes(root: Path, ids: Sequence[ImageSetId], max_sets: int = 500) -> dict[str, int]:

@@ -20,13 +20,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .colour import LUM, SRGB8_TO_LINEAR
+from synthcompose.colour import LUM, SRGB8_TO_LINEAR
 
 #: real objects smaller than this (visible pixels) are too far or too hidden to compare
 MIN_REAL_PIXELS = 400
 #: the ratio's smoothing (pixels) and the shadow depth below which a pixel is not in the shadow
 SHADOW_SIGMA, SHADOW_MIN_DEPTH = 4.0, 0.03
-_LUT = SRGB8_TO_LINEAR
+LEVEL_LUT = SRGB8_TO_LINEAR
 
 
 @dataclass(frozen=True)
@@ -115,8 +115,8 @@ def shadow_blotchiness(src: np.ndarray, out: np.ndarray, mask: np.ndarray, objec
     ring = _ring(mask, objects)
     if ring.sum() < 50:
         return None
-    y_src = cv2.LUT(src, _LUT) @ LUM
-    y_out = cv2.LUT(out, _LUT) @ LUM
+    y_src = cv2.LUT(src, LEVEL_LUT) @ LUM
+    y_out = cv2.LUT(out, LEVEL_LUT) @ LUM
     r = np.where(ring, y_out / np.maximum(y_src, 1e-4), 0.0).astype(np.float32)
     w = ring.astype(np.float32)
     num = cv2.GaussianBlur(r * w, (0, 0), SHADOW_SIGMA)

@@ -1,0 +1,1 @@
+"""Running image sets: one through every stage (pipeline), many in processes or Ray actors (engines), the batch."""
