@@ -16,8 +16,8 @@ disparity and the photo.
    continuous in height with the ground in front of the car, is road in whatever light, so
    where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
    light's road colour is modelled from it too.
-   **Sidewalk**: flat pixels 5-35 cm above the road, not grass, in regions beside the road and
-   raised from it by a kerb (footway.py). Everything else is 0 (unlabelled).
+   **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
+   road. Everything else is 0 (unlabelled).
 
 Deterministic: the same disparity and photo give the same labels (the checker recomputes them).
 """
@@ -33,7 +33,6 @@ from synthcompose.geometry.depth import nearest_in_row
 from synthcompose.io.files import decode_disparity
 from synthcompose.labels import label_id
 
-from .footway import grass, kerb_stepped
 from .noise import measure_sigma
 
 ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
@@ -49,6 +48,8 @@ ENCLOSED_PX = 24
 LEVEL_BAND = 0.05
 #: the road's crown is fitted within this far across from the car, metres
 CROWN_REACH = 3.5
+#: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
+GRASS_SATURATION, GRASS_YELLOW = 18, 5
 #: a sidewalk touches the road within this many working pixels
 TOUCH_PX = 4
 #: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
@@ -205,7 +206,12 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
     hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
     seed = _seed(level, z)
-    green = grass(hsv, lab, seed)  # footway.py
+    # grass is green against the road: Cityscapes photos are greenish grey all over, so the
+    # test is relative to the saturation of the level ground in front of the car
+    s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
+    b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
+    green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
+                                                          | (lab[..., 2] >= b_road + GRASS_YELLOW))
     lane = _lane(level & ~green, seed & ~green, z, sub)
     models = _road_models(lab, seed & ~green, lane)
     road = _road(level & ~green, (seed | lane) & ~green, lab, models)
@@ -230,8 +236,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
         sizes = np.bincount(comp.ravel(), minlength=n)
         touches &= sizes >= 200
         touches[0] = False
-        # raised from the road by a kerb, not rising from it (footway.py)
-        side = kerb_stepped(comp, touches, road, smooth)[comp]
+        side = touches[comp]
     small_labels = np.zeros((h, w), np.uint8)
     small_labels[road] = ROAD
     small_labels[side] = SIDEWALK
