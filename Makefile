@@ -42,7 +42,7 @@ test: system venv lint ## run the whole test suite (the linter, then every test;
 
 check: system venv lint ## the fast tier: every test not marked slow (a few minutes)
 	@bash scripts/system-deps.sh --test
-	$(PY) -m pytest -m "not slow"
+	$(PY) -m pytest -m "not slow" -n auto
 
 lint: venv ## ruff: line length and import order (pyproject.toml)
 	$(VENV)/bin/ruff check synthcompose evaluation tests benchmarks scripts

@@ -136,7 +136,7 @@ class ObjectSpec:
     weight: float
     allowed_surfaces: tuple[str, ...]  # the class's default when the manifest gives none
     orientation: str  # likewise
-    appearance: str = "varied"  # "varied": paint / clothes drawn per object (appearance.py); "model": as modelled
+    appearance: str = "varied"  # "varied": paint / clothes drawn per object (look/appearance.py); "model": as modelled
     cast: tuple[CastEntry, ...] = ()  # a cast pool: the entries each object of it is drawn from (cast/draw.py)
 
 
@@ -156,6 +156,7 @@ class Manifest:
     rules: PlacementRules
     lighting: Lighting
     raw: dict  # the manifest as given, recorded with the outputs
+    lighting_keys: tuple[tuple[str, Any], ...] = ()  # the manifest's "lighting" keys as given: a fixed light's record
     # --- lighting modes (lighting.py)
     lighting_mode: str = "estimate"  # "estimate": each photo's own light; "fixed": `lighting` for all
     match_exposure: bool = False  # estimate mode: scale the light to the photo's exposure
@@ -318,7 +319,7 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         limit=data.get("limit"), seed=int(data.get("seed", 0)),
         objects_per_image=int(data.get("objects_per_image", 1)),
         object_choice=data.get("object_choice", "weights"), objects=tuple(objects),
-        rules=rules, lighting=lighting, raw=data,
+        rules=rules, lighting=lighting, raw=data, lighting_keys=tuple(lt.items()),
         lighting_mode=lighting_mode, match_exposure=bool(lt.get("match_exposure", False)),  # lighting modes
         camera_match=bool(lt.get("camera_match", True)),
         shading=data.get("render", {}).get("shading", "auto"),

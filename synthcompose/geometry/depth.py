@@ -7,11 +7,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any, Callable, TypeVar
 
 import numpy as np
 
 from synthcompose.camera import Camera
 from synthcompose.io.files import decode_disparity, encode_disparity
+
+T = TypeVar("T")
 
 
 def disparity_to_depth(disparity: np.ndarray, camera: Camera) -> np.ndarray:
@@ -128,7 +131,20 @@ class Frame:
     label_ids: np.ndarray
     labelled: bool = True
     photo: np.ndarray | None = field(default=None, repr=False)
-    cache: dict = field(default_factory=dict, repr=False)  # per-frame results of later stages
+    _derived: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # see derived()
+
+    def derived(self, key: tuple, make: Callable[[], T]) -> T:
+        """A value derived from this frame alone (its street, lanes, candidates, stereo noise),
+        made by ``make()`` on the first ask and kept with the frame: placement asks for the same
+        ones object after object. ``key`` names it; ``make`` must depend on the frame and the key
+        only, so that what is kept never depends on who asked first."""
+        if key not in self._derived:
+            self._derived[key] = make()
+        return self._derived[key]
+
+    def made(self, key: tuple) -> Any:
+        """The value :meth:`derived` made for ``key``, None when nothing asked for it."""
+        return self._derived.get(key)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -2,8 +2,9 @@
 
 The package's files are its steps: ``light`` (the record of a light, :class:`LightEstimate`, and
 the constants the cues share), ``grid`` (the photo reduced to cells with points and normals),
-one file per cue (``shadows``, ``pairs``, ``casters``, ``lines``), ``estimate`` (the cues
-weighed into one estimate) and ``camera`` (the camera's noise, blur and tone, given to the
+one file per cue (``shadows``, ``pairs``, ``casters``, ``lines``, ``ground_suns``; the ground plan's
+``plan``, ``edges``, ``plansun``), ``estimate`` (the cues weighed into one estimate), ``colours`` (the
+light's colours and the ground's levels) and ``camera_match`` (the camera's noise, blur and tone, given to the
 inserted objects). The ``compare-lighting`` command lives in :mod:`synthcompose.tools.compare`.
 
 The estimate:

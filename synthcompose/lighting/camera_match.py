@@ -16,7 +16,7 @@ BOX_EDGE_SIGMA = 0.82
 #: what it measures on the renderer's objects without the camera match: sharper than a box
 #: edge (textures sampled bilinearly, shading once per pixel, silhouettes from 4 samples):
 #: 0.62-0.72 on the cast's cars inserted into real 2048x1024 frames, 0.79 on the generated
-#: scene of tests/test_camera_blur.py (smaller cars); the
+#: scene of tests/look/test_camera_blur.py (smaller cars); the
 #: object layer is blurred by the rest of the photo's, so that it measures as the photo does
 RENDER_BLUR_SIGMA = 0.67
 #: the object blur is kept below this (pixels): beyond, the photo is out of focus or smeared

@@ -3,7 +3,7 @@ one leg; arms hanging, hands in pockets, a phone held at the chest, a bag carrie
 (:mod:`.gait`: a continuous phase of the stride); the head turned and tilted. Each pose is a set of
 joint rotations (:mod:`.rig`) and a JSON-able description with every parameter drawn.
 
-Rules the poses keep (tests/test_people.py): the feet stand on the ground (inverse kinematics
+Rules the poses keep (tests/models/test_people.py): the feet stand on the ground (inverse kinematics
 puts the soles on it, flat in standing and in a walking stance), the hands hang clear of the
 hips and the arms clear of the torso (the wrist placed beside the body's measured width),
 nothing but what is asked for comes from ``rng``.

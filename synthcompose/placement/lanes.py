@@ -72,12 +72,12 @@ class Lane:
 def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
     """Every lane of the street (cached on the frame)."""
     key = ("lanes", id(street), hand)
-    if key not in frame.cache:
+
+    def make() -> tuple[Lane, ...]:
         rows = parked_rows(frame, street)
-        frame.cache[key] = tuple(lane for k, cw in enumerate(street.carriageways)
-                                 for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {},
-                                                                street.ego_offset))
-    return frame.cache[key]
+        return tuple(lane for k, cw in enumerate(street.carriageways)
+                     for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {}, street.ego_offset))
+    return frame.derived(key, make)
 
 
 def sun_direction_of(cw: Carriageway, s: float, hand: int) -> int:

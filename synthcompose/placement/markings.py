@@ -48,9 +48,7 @@ class Markings:
 def find_markings(frame: Frame) -> Markings:
     """The frame's markings (cached on the frame); none without a photo."""
     key = ("markings",)
-    if key not in frame.cache:
-        frame.cache[key] = _find(frame)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _find(frame))
 
 
 def _find(frame: Frame) -> Markings:

@@ -83,7 +83,8 @@ def measure_sigma(disparity_px: np.ndarray, ground: np.ndarray, step: int = STEP
 def stereo_noise(frame, ground_ids) -> StereoNoise:
     """The frame's :class:`StereoNoise`, measured on its pixels of ``ground_ids`` labels (cached)."""
     key = ("stereo_noise", tuple(int(i) for i in ground_ids))
-    if key not in frame.cache:
+
+    def measure() -> StereoNoise:
         cam = frame.camera
         fb = float(cam.fx * cam.baseline)
         # every other column, differences over STEP pixels of the full image
@@ -95,5 +96,5 @@ def stereo_noise(frame, ground_ids) -> StereoNoise:
         lut[np.asarray(list(ground_ids), int)] = True
         ground = lut[frame.label_ids[:, ::2]] & np.isfinite(disparity)
         sigma = measure_sigma(disparity, ground, step=STEP // 2, stride=6, row_step=STEP)
-        frame.cache[key] = StereoNoise(sigma, fb, float(cam.z))
-    return frame.cache[key]
+        return StereoNoise(sigma, fb, float(cam.z))
+    return frame.derived(key, measure)

@@ -55,9 +55,7 @@ class ParkedRow:
 def parked_rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
     """The parked rows along the ego carriageway's kerbs (cached on the frame, per street)."""
     key = ("parked_rows", id(street))
-    if key not in frame.cache:
-        frame.cache[key] = _rows(frame, street)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _rows(frame, street))
 
 
 def _vehicle_points(frame: Frame, street: Street) -> tuple[np.ndarray, np.ndarray]:

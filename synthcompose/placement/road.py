@@ -47,14 +47,14 @@ def road_line(frame: Frame, surface_ids: np.ndarray, point: np.ndarray) -> RoadL
         return None
     cell = (int(math.floor(point[0] / LINE_CELL)), int(math.floor(point[1] / LINE_CELL)))
     key = ("road_line", tuple(int(i) for i in surface_ids), cell)
-    if key not in frame.cache:
+
+    def fit():
         centre = (np.array(cell, float) + 0.5) * LINE_CELL
         rng = np.random.default_rng([cell[0] & 0xFFFF, cell[1] & 0xFFFF])
         # far away a kerb is seen sparsely: look twice as far before falling back on the
         # ego vehicle's heading (a turned street is not along it)
-        frame.cache[key] = (fit_road_line(edges, centre, rng)
-                            or fit_road_line(edges, centre, rng, radius=2 * LINE_RADIUS))
-    line = frame.cache[key]
+        return fit_road_line(edges, centre, rng) or fit_road_line(edges, centre, rng, radius=2 * LINE_RADIUS)
+    line = frame.derived(key, fit)
     return None if line is None else RoadLine(line.angle, line.offset_of(point), line.inliers, line.ambiguous,
                                               line.centre)
 
@@ -63,9 +63,7 @@ def surface_edges(frame: Frame, surface_ids: np.ndarray) -> np.ndarray:
     """(N, 2) ground-plan points (V) where a surface (e.g. road) meets another ground-level
     surface (e.g. sidewalk): the kerb lines. Cached on the frame per surface."""
     key = ("surface_edges", tuple(int(i) for i in surface_ids))
-    if key not in frame.cache:
-        frame.cache[key] = _surface_edges(frame, surface_ids)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _surface_edges(frame, surface_ids))
 
 
 def _surface_edges(frame: Frame, road_ids: np.ndarray, stride: int = 2) -> np.ndarray:

@@ -56,9 +56,7 @@ STRIDE = 2
 def candidates(frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> "_Candidates":
     """The frame's candidate pixels for one surface and distance range (cached on the frame)."""
     key = ("candidates", tuple(int(i) for i in allowed_ids), tuple(float(d) for d in distance))
-    if key not in frame.cache:
-        frame.cache[key] = _Candidates(frame, allowed_ids, distance)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _Candidates(frame, allowed_ids, distance))
 
 
 class _Candidates:
@@ -179,6 +177,64 @@ def _seen_ground(frame: Frame, point: np.ndarray, allowed_ids: np.ndarray, noise
     return None
 
 
+def _turned(frame: Frame, street, point: np.ndarray, orientation: str, extents, rng: np.random.Generator,
+            jitter: float, hand: int, pose_hint: str | None, allowed_ids: np.ndarray, noise):
+    """A candidate's place and heading: (point, yaw, road yaw or None, traffic claim or None), or
+    the Rejection. With traffic sense the candidate moves to its place in the lane or at the kerb
+    (traffic.py); without, it is turned towards the camera or at random."""
+    if orientation == "random":
+        return point, float(rng.uniform(-math.pi, math.pi)), None, None
+    if orientation == "face-camera":
+        to_cam = frame.camera.position[:2] - point[:2]
+        return point, math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter)), None, None
+    if orientation == "pedestrian":
+        spot = person_spot(frame, street, point, rng, hand, pose_hint)
+    elif orientation == "facing-traffic":
+        spot = sign_spot(frame, street, point, extents, rng, jitter, hand)
+    else:
+        spot = vehicle_spot(frame, street, point, extents, orientation, rng, jitter, hand)
+    if isinstance(spot, Rejection):
+        return spot
+    moved, yaw, claim = spot
+    seen = _seen_ground(frame, moved, allowed_ids, noise)
+    if seen is None:
+        return Rejection("its place in traffic is not seen on the ground")
+    return seen, yaw, math.radians(claim.heading_deg), claim
+
+
+def _posed(frame: Frame, tests: PoseTests, point: np.ndarray, yaw: float, rules: PlacementRules, class_name: str,
+           extents, allowed, orientation: str, claim, others: Sequence[Placement], other_prints: list):
+    """The candidate's pose on its local ground through every test: (matrix, position, ground,
+    share in the image, hidden share), or the first Rejection."""
+    # 1. cheap image tests on a provisional level pose: in view, footprint on allowed ground
+    why = tests.image(pose_matrix(point, UP, yaw), heights=False)
+    if why:
+        return why
+    # 2. the local ground: robust plane through the allowed points around the candidate
+    ground, why = tests.ground(point)
+    if why is None and tests.off_ground(point, ground, rules.max_ground_rms + 0.02) is not None:
+        why = Rejection("candidate point is off the fitted ground (kerb face, noise)")
+    if why:
+        return why
+    position = np.array([point[0], point[1], ground.height(point[0], point[1])])
+    m = pose_matrix(position, ground.normal, yaw)
+    # 3. the image tests on the final pose (with heights), then the visibility rules
+    why = tests.image(m)
+    if why:
+        return why
+    why, in_image, hidden = tests.visibility(m, others)
+    if why:
+        return why
+    # 4. other objects of this frame; 5. scene points inside the box; 6. the pose as the
+    # checker sees it: the same rules on the pose given outright, traffic included (one
+    # rule set: what placement returns, check-placement --strict accepts)
+    why = tests.overlap(m, other_prints, others) or tests.scene(m) \
+        or check_pose(frame, class_name, extents, m, rules, allowed, others, orientation, claim)
+    if why:
+        return why
+    return m, position, ground, in_image, hidden
+
+
 def place_object(frame: Frame, class_name: str, extents: tuple[float, float, float], rng: np.random.Generator,
                  rules: PlacementRules, allowed: Sequence[str] | None = None, orientation: str | None = None,
                  others: Sequence[Placement] = (), trace: list | None = None,
@@ -216,61 +272,18 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         point = pool.point(idx).astype(float)
         if trace is not None:  # preview: where this candidate was
             rejections.point = point
-        # orientation: with traffic sense the candidate moves to its place in the lane or at
-        # the kerb (traffic.py); without, it is turned towards the camera or at random
-        road_yaw, claim = None, None
-        if orientation == "random":
-            yaw = float(rng.uniform(-math.pi, math.pi))
-        elif orientation == "face-camera":
-            to_cam = camera.position[:2] - point[:2]
-            yaw = math.atan2(to_cam[1], to_cam[0]) + float(rng.normal(0.0, jitter))
-        else:
-            if orientation == "pedestrian":
-                spot = person_spot(frame, street, point, rng, hand, pose_hint)
-            elif orientation == "facing-traffic":
-                spot = sign_spot(frame, street, point, extents, rng, jitter, hand)
-            else:
-                spot = vehicle_spot(frame, street, point, extents, orientation, rng, jitter, hand)
-            if isinstance(spot, Rejection):
-                rejections[spot.reason] += 1
-                continue
-            moved, yaw, claim = spot
-            point = _seen_ground(frame, moved, allowed_ids, tests.noise)
-            if point is None:
-                rejections["its place in traffic is not seen on the ground"] += 1
-                continue
-            road_yaw = math.radians(claim.heading_deg)
-        # 1. cheap image tests on a provisional level pose: in view, footprint on allowed ground
-        why = tests.image(pose_matrix(point, UP, yaw), heights=False)
-        if why:
-            rejections[why.reason] += 1
+        turned = _turned(frame, street, point, orientation, extents, rng, jitter, hand, pose_hint, allowed_ids,
+                         tests.noise)
+        if isinstance(turned, Rejection):
+            rejections[turned.reason] += 1
             continue
-        # 2. the local ground: robust plane through the allowed points around the candidate
-        ground, why = tests.ground(point)
-        if why is None and tests.off_ground(point, ground, rules.max_ground_rms + 0.02) is not None:
-            why = Rejection("candidate point is off the fitted ground (kerb face, noise)")
-        if why:
-            rejections[why.reason] += 1
+        point, yaw, road_yaw, claim = turned
+        posed = _posed(frame, tests, point, yaw, rules, class_name, extents, allowed, orientation, claim, others,
+                       other_prints)
+        if isinstance(posed, Rejection):
+            rejections[posed.reason] += 1
             continue
-        position = np.array([point[0], point[1], ground.height(point[0], point[1])])
-        m = pose_matrix(position, ground.normal, yaw)
-        # 3. the image tests on the final pose (with heights), then the visibility rules
-        why = tests.image(m)
-        if why:
-            rejections[why.reason] += 1
-            continue
-        why, in_image, hidden = tests.visibility(m, others)
-        if why:
-            rejections[why.reason] += 1
-            continue
-        # 4. other objects of this frame; 5. scene points inside the box; 6. the pose as the
-        # checker sees it: the same rules on the pose given outright, traffic included (one
-        # rule set: what placement returns, check-placement --strict accepts)
-        why = tests.overlap(m, other_prints, others) or tests.scene(m) \
-            or check_pose(frame, class_name, extents, m, rules, allowed, others, orientation, claim)
-        if why:
-            rejections[why.reason] += 1
-            continue
+        m, position, ground, in_image, hidden = posed
         uv = camera.project(frame.to_optical(position[None]))[0]
         row = int(np.clip(round(uv[1]), 0, frame.shape[0] - 1))
         col = int(np.clip(round(uv[0]), 0, frame.shape[1] - 1))

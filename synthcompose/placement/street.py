@@ -156,9 +156,7 @@ def find_street(frame: Frame, hand: int = 1) -> Street:
     (-1) traffic: the centre line is on the side of the ego vehicle its oncoming traffic
     drives on."""
     key = ("street", hand)
-    if key not in frame.cache:
-        frame.cache[key] = _build(frame, hand)
-    return frame.cache[key]
+    return frame.derived(key, lambda: _build(frame, hand))
 
 
 def _window(xy: np.ndarray, cam_x: float) -> np.ndarray:

@@ -106,13 +106,14 @@ def _ground_plan(frame: Frame, stride: int = 2) -> tuple[np.ndarray, np.ndarray]
     """The frame's ground-level points on the ground plan (every ``stride``-th pixel, V) and
     whether each is road; cached on the frame."""
     key = ("ground_plan", stride)
-    if key not in frame.cache:
+
+    def make() -> tuple[np.ndarray, np.ndarray]:
         lab = frame.label_ids[::stride, ::stride]
         v, u = np.nonzero(label_mask([label_id(n) for n in GROUND_LEVEL])[lab]
                           & np.isfinite(frame.depth[::stride, ::stride]))
         _, pts = back_project(frame.depth, frame.camera, v * stride, u * stride)
-        frame.cache[key] = (pts[:, :2].astype(np.float64), lab[v, u] == label_id("road"))
-    return frame.cache[key]
+        return pts[:, :2].astype(np.float64), lab[v, u] == label_id("road")
+    return frame.derived(key, make)
 
 
 def on_carriageway(frame: Frame, m: np.ndarray, extents) -> Rejection | None:

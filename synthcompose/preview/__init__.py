@@ -31,8 +31,8 @@ from .session import (
            REASON_COLOURS,
            STEP_M,
            STEP_YAW_DEG,
-           PlacedObject,
            PlacementRefused,
+           PreviewObject,
            PreviewSession,
            Verdict,
            View,
@@ -40,6 +40,6 @@ from .session import (
 from .window import HELP, KEYS, PreviewWindow, run_preview
 
 __all__ = ["ACCEPTED_COLOUR", "BOX_COLOUR", "BOX_EDGES", "FAIL_COLOUR", "HELP", "ID_COLOURS", "KEYS", "NOTE_COLOUR",
-           "OK_COLOUR", "Orbit", "Overlay", "PASSES", "PASS_TITLES", "PLANE_COLOUR", "PlacedObject", "PlacementRefused",
+           "OK_COLOUR", "Orbit", "Overlay", "PASSES", "PASS_TITLES", "PLANE_COLOUR", "PreviewObject", "PlacementRefused",
            "PreviewSession", "PreviewWindow", "REASON_COLOURS", "SELECTED_BOX_COLOUR", "STEP_M", "STEP_YAW_DEG",
            "TEXT_COLOUR", "Verdict", "View", "box_mesh", "export_ply", "plane_quad", "run_preview", "view_legend"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Mapping
 
 import cv2
 import numpy as np
@@ -35,7 +36,8 @@ from synthcompose.placement.saved_poses import (
     read_saved,
     write_saved,
 )
-from synthcompose.stages import measure_light, place, prepare, shade
+from synthcompose.stages import NotPlaced, StageOptions, measure_light, place, prepare, shade
+from synthcompose.stages.timing import Timings
 
 from .export import export_ply
 
@@ -96,7 +98,7 @@ class Verdict:
 
 
 @dataclass
-class PlacedObject:
+class PreviewObject:
     name: str  # manifest object name
     class_name: str
     placement: Placement
@@ -111,11 +113,11 @@ class View:
     ident: ImageSetId
     rgb: np.ndarray  # (H, W, 3) uint8, the input photo
     frame: Frame
-    objects: list[PlacedObject]
-    failures: list[dict]
+    objects: list[PreviewObject]
+    failures: list[NotPlaced]
     trace: list  # (candidate point in V, rejection reason)
     source: str  # "random", "saved" or "moved"
-    passes: dict[str, np.ndarray] = field(default_factory=dict)  # ROI-sized, as RenderPasses.read gives
+    passes: Mapping[str, np.ndarray] = field(default_factory=dict)  # ROI-sized, as RenderPasses.read gives
     roi: tuple[int, int, int, int] | None = None  # x0, y0, width, height
     composed_rgb: np.ndarray | None = None
     composed_labels: np.ndarray | None = None
@@ -193,13 +195,14 @@ class PreviewSession:
         m = replace(self.base, seed=self.base.seed + self.seed_offset, right_view=False)  # the left view is shown
         saved = read_saved(m.output, self.ident) if override is None else \
             (None if override is IGNORE_SAVED else override)
-        prep = prepare(m, self.ident, {})
+        o = StageOptions.of(m)
+        prep = prepare(o.read, self.ident, Timings())
         trace: list = []
-        placed = place(m, p.weights, prep, {}, saved=saved, trace=trace)
-        shaded = shade(p.renderer, p.composer, m, prep, measure_light(m, prep, {}), placed, {},
+        placed = place(o.place, p.weights, prep, Timings(), saved=saved, trace=trace)
+        shaded = shade(p.renderer, p.composer, o.shade, prep, measure_light(o.read, prep, Timings()), placed, Timings(),
                        keep=("irpv", "ir", "alpha", "odepth", "id")) if placed.objects else None
         source = "random" if saved is None else ("saved" if saved.path is not None else "moved")
-        objects = [PlacedObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
+        objects = [PreviewObject(o.spec.name, o.spec.class_name, o.placement, tuple(o.placement.extents),
                                 tuple(o.spec.allowed_surfaces)) for o in placed.objects]
         composed = None if shaded is None else shaded.composed
         self.view = View(self.ident, prep.image_set.rgb, prep.frame, objects, list(placed.failures), trace, source,
@@ -211,7 +214,7 @@ class PreviewSession:
         self.selected = min(self.selected, max(len(objects) - 1, 0))
         return self.view
 
-    def _verdict(self, frame: Frame, objects: list[PlacedObject]) -> Verdict:
+    def _verdict(self, frame: Frame, objects: list[PreviewObject]) -> Verdict:
         """Each object against the rules, the objects before it standing (the batch's order)."""
         rules = self.base.rules
         return Verdict(tuple((o.name, check_pose(frame, o.class_name, o.extents, o.placement.matrix, rules, o.allowed,
@@ -327,7 +330,7 @@ class PreviewSession:
         for why, n in sorted(v.reasons.items(), key=lambda kv: -kv[1]):
             lines.append(f"  rgb{cols[why]}  x{n}  {why}")
         for f in v.failures:
-            lines.append(f"  not placed: {f['name']} ({f['reason']}, {f['attempts']} attempts)")
+            lines.append(f"  not placed: {f.name} ({f.reason}, {f.attempts} attempts)")
         return lines
 
     # ------------------------------------------------------------------------------ PLY

@@ -52,8 +52,8 @@ class RenderObject:
     #: the ground plane reaches this far beyond the footprint (plus the shadow), metres
     plane_margin: float = PLANE_MARGIN
     sun_visibility: float = 1.0  # sun reaching the object: 0 when it stands in a real cast shadow (lighting.py)
-    recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (appearance.py), at most 3
-    plate: str | None = None  # the registration on its number plates (plates.py); None: blank plates
+    recolour: tuple = ()  # ((material key rgba, linear rgb), ...): its paint or clothes (look/appearance.py), at most 3
+    plate: str | None = None  # the registration on its number plates (look/plates.py); None: blank plates
 
     def shadow_reach(self, lighting: "Lighting") -> np.ndarray:
         """(2,) object-frame vector from the footprint's centre: where and how far (at most

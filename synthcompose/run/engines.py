@@ -6,8 +6,9 @@ import logging
 import multiprocessing as mp
 import os
 import signal
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -19,9 +20,6 @@ from synthcompose.record import Status
 from .pipeline import Outcome, Pipeline
 
 log = logging.getLogger("synthcompose")
-
-#: fault injection (tests): a worker process given this image set key crashes with SIGSEGV
-
 
 class BatchError(SynthComposeError):
     """The batch as a whole cannot run (the message says why)."""
@@ -90,15 +88,46 @@ def in_process(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], 
         yield from pipe.stream(todo)
 
 
+@dataclass(frozen=True)
+class WorkerReady:
+    """A worker made its GL context (the renderer's name)."""
+
+    renderer: str
+
+
+@dataclass(frozen=True)
+class WorkerFailed:
+    """A worker could not start (why)."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
+class WorkerBegins:
+    """A worker begins computing an image set: the one that fails if the worker dies."""
+
+    key: str
+
+
+@dataclass(frozen=True)
+class WorkerDone:
+    """A worker finished an image set."""
+
+    outcome: Outcome
+
+
+WorkerMessage = WorkerReady | WorkerFailed | WorkerBegins | WorkerDone
+
+
 def run_worker(manifest: Manifest, weights: np.ndarray, gl_device: int | None, conn, wid: int,
-                 threads: int) -> None:
+               threads: int) -> None:
     """A spawned worker: its own GL context; takes image sets over its own pipe until None.
 
     Each worker has a pipe of its own (no queue shared between workers): a worker that dies
     while sending can never leave a lock held that would stall the others. The parent keeps
     :data:`IN_FLIGHT` image sets queued on it, so that the next one is read while one is
-    computed and the last one written (:meth:`Pipeline.stream`); the worker says ("begin",
-    key) when it starts computing one, which is the one that fails if it dies.
+    computed and the last one written (:meth:`Pipeline.stream`); the worker says
+    :class:`WorkerBegins` when it starts computing one, which is the one that fails if it dies.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the parent, which stops the batch
     # share the cores between workers: llvmpipe's and OpenCV's thread pools would
@@ -110,16 +139,16 @@ def run_worker(manifest: Manifest, weights: np.ndarray, gl_device: int | None, c
     try:
         pipe = Pipeline(manifest, weights, gl_device=gl_device)
     except BaseException as exc:  # noqa: BLE001 - report, the parent decides
-        conn.send(("init-failed", f"{type(exc).__name__}: {exc}"))
+        conn.send(WorkerFailed(f"{type(exc).__name__}: {exc}"))
         return
-    conn.send(("ready", pipe.gl.renderer_name))
+    conn.send(WorkerReady(pipe.gl.renderer_name))
 
     def begin(ident: ImageSetId) -> None:
-        conn.send(("begin", ident.key))
+        conn.send(WorkerBegins(ident.key))
 
     try:
         for outcome in pipe.stream(iter(conn.recv, None), on_begin=begin):
-            conn.send(("done", outcome))
+            conn.send(WorkerDone(outcome))
     except (BrokenPipeError, EOFError, ConnectionResetError, KeyboardInterrupt):
         # the parent is gone (SIGTERM, Ctrl-C): it reports; a worker just stops, without a
         # traceback of its own (what it wrote is complete or a temporary file: a rerun resumes)
@@ -136,42 +165,84 @@ worker_entry: Callable[..., None] = run_worker
 IN_FLIGHT = 2
 
 
+@dataclass(eq=False)
+class _Worker:
+    """The parent's side of one worker process: its pipe, the image sets queued on it and the
+    one it computes."""
+
+    wid: int
+    proc: Any  # multiprocessing's SpawnProcess
+    conn: Any  # the parent's end of the pipe
+    queued: list[ImageSetId] = field(default_factory=list)
+    computing: str | None = None  # the key of the image set it said it begins
+    closed: bool = False  # told to stop once its queue is done
+
+    def feed(self, pending: list[ImageSetId]) -> None:
+        """Top the queue up to IN_FLIGHT from ``pending``; None (stop when done) once nothing is left."""
+        try:
+            while pending and not self.closed and len(self.queued) < IN_FLIGHT:
+                self.queued.append(pending.pop())
+                self.conn.send(self.queued[-1])
+            if not pending and not self.closed:
+                self.closed = True
+                self.conn.send(None)
+        except (OSError, ValueError):
+            pass  # died meanwhile: noticed through its sentinel
+
+    def receive(self, ready: list) -> WorkerMessage | None:
+        """Its message, if one is waiting."""
+        if self.conn not in ready and self.proc.sentinel not in ready:
+            return None
+        try:
+            return self.conn.recv() if self.conn.poll() else None
+        except (EOFError, OSError):
+            return None
+
+    def dead(self, ready: list) -> bool:
+        return self.proc.sentinel in ready or not self.proc.is_alive()
+
+    def bury(self) -> tuple[list[Outcome], list[ImageSetId]]:
+        """After its death: the outcome of the image set it was computing (failed), and the ones
+        queued behind it, for the others."""
+        self.proc.join(timeout=1)
+        self.conn.close()
+        failed, requeue = [], []
+        for ident in reversed(self.queued):
+            if ident.key == self.computing:
+                failed.append(Outcome(ident.key, Status.FAILED,
+                                      f"worker process died (exit code {self.proc.exitcode}) on this image set"))
+            else:
+                requeue.append(ident)
+        return failed, requeue
+
+    def stop(self) -> None:
+        try:
+            self.conn.send(None)
+        except (OSError, ValueError):
+            pass
+
+
 def process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,
-                  gpus: int) -> Iterator[Outcome]:
+                 gpus: int) -> Iterator[Outcome]:
     """``workers`` spawned processes; a dead worker's image set fails and the worker is replaced."""
     from multiprocessing.connection import wait
 
     ctx = mp.get_context("spawn")
     pending = list(reversed(todo))
-    slots: dict[int, dict] = {}
-    next_id = 0
-    restarts = 0
+    slots: dict[int, _Worker] = {}
+    started = restarts = 0
     threads = max(1, (os.cpu_count() or 1) // workers)
 
     def start() -> None:
-        nonlocal next_id
-        wid = next_id
-        next_id += 1
+        nonlocal started
+        wid, started = started, started + 1
         parent_end, child_end = ctx.Pipe()
         device = (wid % gpus) if gpus else None
         proc = ctx.Process(target=worker_entry, args=(manifest, weights, device, child_end, wid, threads),
                            name=f"synthcompose-worker-{wid}", daemon=True)
         proc.start()
         child_end.close()
-        slots[wid] = {"proc": proc, "conn": parent_end, "queued": [], "computing": None, "closed": False}
-
-    def feed(wid: int) -> None:
-        """Top the worker's queue up to IN_FLIGHT; None (stop when done) once nothing is left."""
-        slot = slots[wid]
-        try:
-            while pending and not slot["closed"] and len(slot["queued"]) < IN_FLIGHT:
-                slot["queued"].append(pending.pop())
-                slot["conn"].send(slot["queued"][-1])
-            if not pending and not slot["closed"]:
-                slot["closed"] = True
-                slot["conn"].send(None)
-        except (OSError, ValueError):
-            pass  # died meanwhile: noticed through its sentinel
+        slots[wid] = _Worker(wid, proc, parent_end)
 
     for _ in range(min(workers, len(todo))):
         start()
@@ -182,59 +253,41 @@ def process_pool(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId]
                 for ident in reversed(pending):
                     yield Outcome(ident.key, Status.FAILED, "no worker left to process it")
                 return
-            ready = wait([sl["conn"] for sl in slots.values()] + [sl["proc"].sentinel for sl in slots.values()],
-                         timeout=5.0)
-            for wid, slot in list(slots.items()):
-                message = None
-                if slot["conn"] in ready or slot["proc"].sentinel in ready:
-                    try:
-                        if slot["conn"].poll():
-                            message = slot["conn"].recv()
-                    except (EOFError, OSError):
-                        message = None
+            ready = wait([w.conn for w in slots.values()] + [w.proc.sentinel for w in slots.values()], timeout=5.0)
+            for wid, worker in list(slots.items()):
+                message = worker.receive(ready)
                 if message is not None:
-                    kind, payload = message
-                    if kind == "init-failed":
-                        raise BatchError(f"a worker could not start: {payload}")
-                    if kind == "ready":
-                        if wid == 0:
-                            log.info("GL: %s", payload)
-                    elif kind == "begin":
-                        slot["computing"] = payload
-                    else:
-                        slot["queued"] = [i for i in slot["queued"] if i.key != payload.key]
+                    if isinstance(message, WorkerFailed):
+                        raise BatchError(f"a worker could not start: {message.reason}")
+                    if isinstance(message, WorkerReady) and wid == 0:
+                        log.info("GL: %s", message.renderer)
+                    elif isinstance(message, WorkerBegins):
+                        worker.computing = message.key
+                    elif isinstance(message, WorkerDone):
+                        worker.queued = [i for i in worker.queued if i.key != message.outcome.key]
                         outstanding -= 1
-                        yield payload
-                    feed(wid)
+                        yield message.outcome
+                    worker.feed(pending)
                     continue
-                if slot["proc"].sentinel in ready or not slot["proc"].is_alive():
-                    slot["proc"].join(timeout=1)
+                if worker.dead(ready):
                     del slots[wid]
-                    slot["conn"].close()
-                    # the image set it was computing fails; the ones queued behind it go to others
-                    for ident in reversed(slot["queued"]):
-                        if ident.key == slot["computing"]:
-                            outstanding -= 1
-                            yield Outcome(ident.key, Status.FAILED,
-                                          f"worker process died (exit code {slot['proc'].exitcode}) on this image set")
-                        else:
-                            pending.append(ident)
+                    failed, requeue = worker.bury()
+                    outstanding -= len(failed)
+                    yield from failed
+                    pending.extend(requeue)
                     if pending and restarts < 10 * workers:
                         restarts += 1
-                        if slot["proc"].exitcode != 0:
+                        if worker.proc.exitcode != 0:
                             log.warning("worker %d died (exit code %s); starting a replacement", wid,
-                                        slot["proc"].exitcode)
+                                        worker.proc.exitcode)
                         start()
     finally:
-        for slot in slots.values():
-            try:
-                slot["conn"].send(None)
-            except (OSError, ValueError):
-                pass
-        for slot in slots.values():
-            slot["proc"].join(timeout=10)
-            if slot["proc"].is_alive():
-                slot["proc"].terminate()
+        for worker in slots.values():
+            worker.stop()
+        for worker in slots.values():
+            worker.proc.join(timeout=10)
+            if worker.proc.is_alive():
+                worker.proc.terminate()
 
 
 def ray_engine(manifest: Manifest, weights: np.ndarray, todo: list[ImageSetId], workers: int,

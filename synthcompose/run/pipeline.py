@@ -41,6 +41,7 @@ from synthcompose.stages import (
     Placed,
     Prepared,
     Shaded,
+    StageOptions,
     measure_light,
     place,
     prepare,
@@ -48,6 +49,7 @@ from synthcompose.stages import (
     write_done,
     write_skipped,
 )
+from synthcompose.stages.timing import Timings
 
 from .malloc import release_free_memory, steady_malloc
 
@@ -58,15 +60,15 @@ STAGES = ("read", "geometry", "placement", "lighting", "render", "compose", "rig
 __all__ = ["Outcome", "Pipeline", "STAGES"]
 
 
-def _guarded(ident: ImageSetId, timings: dict[str, float], step: Callable):
+def _guarded(ident: ImageSetId, timings: Timings, step: Callable):
     """``step()``, or a ``failed`` outcome when it raises: bad input is reported, never raised."""
     try:
         return step()
     except SynthComposeError as exc:
-        return Outcome(ident.key, Status.FAILED, str(exc), timings=timings)
+        return Outcome(ident.key, Status.FAILED, str(exc), timings=timings.seconds())
     except Exception as exc:  # a bug must not take the rest of the batch down
         log.debug("internal error on %s", ident.key, exc_info=True)
-        return Outcome(ident.key, Status.FAILED, f"internal error: {type(exc).__name__}: {exc}", timings=timings)
+        return Outcome(ident.key, Status.FAILED, f"internal error: {type(exc).__name__}: {exc}", timings=timings.seconds())
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,6 +89,7 @@ class Pipeline:
         ``gl_device``: EGL device index (a GPU) for this pipeline's context; ``gl``: work in this
         context instead of making one (the preview window's, :meth:`GLContext.wrap`)."""
         self.manifest = manifest
+        self.options = StageOptions.of(manifest)  # the slice of the manifest each stage reads
         self.gl = gl if gl is not None else GLContext(gl_backend, device=gl_device)
         self._own_gl = gl is None  # a context given is its owner's to release
         self.renderer = Renderer(self.gl, shading=manifest.shading)
@@ -107,7 +110,7 @@ class Pipeline:
 
     def process(self, ident: ImageSetId) -> Outcome:
         """Run every stage for one image set; never raises for bad input (returns ``failed``)."""
-        timings: dict[str, float] = {}
+        timings = Timings()
 
         def run() -> Outcome:
             ahead = self._ahead(ident, timings)
@@ -130,11 +133,11 @@ class Pipeline:
         steady_malloc()
         source = iter(idents)
 
-        def prepare_next() -> tuple[ImageSetId, dict, "Prepared | Outcome"] | None:
+        def prepare_next() -> tuple[ImageSetId, Timings, "Prepared | Outcome"] | None:
             ident = next(source, None)
             if ident is None:
                 return None
-            timings: dict[str, float] = {}
+            timings = Timings()
             return ident, timings, _guarded(ident, timings, lambda: self._ahead(ident, timings))
 
         # BLAS thread pools on top of these threads only contend: our matrices are skinny
@@ -167,26 +170,26 @@ class Pipeline:
             if writing is not None:
                 yield writing.result()
 
-    def _ahead(self, ident: ImageSetId, timings: dict[str, float]) -> "_Ready | Placed":
+    def _ahead(self, ident: ImageSetId, timings: Timings) -> "_Ready | Placed":
         """Everything before the GL context: read, geometry, placement (the image set's saved
         poses, if any) and, when anything was placed, the photo's light (no GL: runs on the
         preparing thread)."""
-        m = self.manifest
-        prep = prepare(m, ident, timings)
-        placed = place(m, self.weights, prep, timings, saved=read_saved(m.output, ident))
+        o = self.options
+        prep = prepare(o.read, ident, timings)
+        placed = place(o.place, self.weights, prep, timings, saved=read_saved(o.write.output, ident))
         if not placed.objects:
             return placed
-        return _Ready(prep, measure_light(m, prep, timings), placed)
+        return _Ready(prep, measure_light(o.read, prep, timings), placed)
 
-    def _shade(self, ready: "_Ready", timings: dict[str, float]) -> Shaded:
+    def _shade(self, ready: "_Ready", timings: Timings) -> Shaded:
         """Light, render and compose (this thread owns the GL context)."""
-        return shade(self.renderer, self.composer, self.manifest, ready.prep, ready.light, ready.placed, timings)
+        return shade(self.renderer, self.composer, self.options.shade, ready.prep, ready.light, ready.placed, timings)
 
-    def _write(self, ident: ImageSetId, result: "Shaded | Placed", timings: dict[str, float]) -> Outcome:
+    def _write(self, ident: ImageSetId, result: "Shaded | Placed", timings: Timings) -> Outcome:
         """The write stage (thread-safe: touches no GL and no state of self)."""
         if isinstance(result, Placed):
-            return write_skipped(self.manifest, ident, result, timings)
+            return write_skipped(self.options.write, ident, result, timings)
         try:
-            return write_done(self.manifest, ident, result, timings)
+            return write_done(self.options.write, ident, result, timings)
         finally:
             release_free_memory()  # the encoders' and polygons' buffers

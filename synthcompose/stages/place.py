@@ -6,7 +6,10 @@ from __future__ import annotations
 import logging
 import zlib
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -15,8 +18,7 @@ from synthcompose.cast import CastDraw, cast_model, cast_rng, draw_entry
 from synthcompose.errors import InputError, SynthComposeError
 from synthcompose.io.dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
-from synthcompose.lighting import fixed_record
-from synthcompose.manifest import Manifest, ObjectSpec
+from synthcompose.manifest import ObjectSpec
 from synthcompose.models import Model, load_model, posable, pose_rng, posed_model
 from synthcompose.models.poses import KINDS, WALKING_SHARE
 from synthcompose.placement import Placement, PlacementResult, check_pose, frame_noise, place_object
@@ -27,8 +29,9 @@ from synthcompose.placement.saved_poses import SavedPlacement, pose_problem, sav
 from synthcompose.placement.traffic import hand_of
 from synthcompose.record import ImageSetRecord
 
+from .options import PlaceOptions
 from .prepare import Prepared
-from .timing import timed
+from .timing import Timings, timed
 
 log = logging.getLogger("synthcompose")
 
@@ -47,6 +50,35 @@ def new_instance_id(instance_ids: np.ndarray, class_id: int, taken: set[int]) ->
     return class_id * INSTANCE_FACTOR + k
 
 
+@dataclass(frozen=True)
+class NotPlaced:
+    """An object that found no place: why, after how many candidates, and each rejection's count."""
+
+    name: str
+    class_name: str
+    reason: str
+    attempts: int
+    rejections: tuple[tuple[str, int], ...]  # (reason, candidates rejected for it), in the order first met
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "class": self.class_name, "reason": self.reason, "attempts": self.attempts,
+                "rejections": dict(self.rejections)}
+
+
+@dataclass(frozen=True)
+class PoseCheck:
+    """Whether the batch's rules accept a saved pose (used as it is); the rule it breaks if not."""
+
+    ok: bool
+    rule: str | None = None
+    reason: str | None = None
+    detail: str | None = None
+
+    def to_json(self) -> dict:
+        return {"ok": True} if self.ok else {"ok": False, "rule": self.rule, "reason": self.reason,
+                                             "detail": self.detail}
+
+
 @dataclass(frozen=True, eq=False)
 class PlacedObject:
     """One object with a place: its manifest entry, model, pose and instance id."""
@@ -55,9 +87,9 @@ class PlacedObject:
     model: Model
     result: PlacementResult  # the pose and the candidates' rejections
     instance_id: int
-    check: dict | None  # a saved pose: whether the batch's rules accept it ({"ok", ...})
+    check: PoseCheck | None  # a saved pose: whether the batch's rules accept it
     cast: CastDraw | None = None  # a cast pool's object: the entry it got (the record's appearance)
-    pose: dict | None = None  # a person posed for this object: its pose (models.poses), for the record
+    pose: Mapping[str, Any] | None = None  # a person posed for this object: its pose (models.poses), for the record
 
     @property
     def placement(self) -> Placement:
@@ -69,39 +101,39 @@ class Placed:
     """The placement of one frame."""
 
     objects: tuple[PlacedObject, ...]
-    failures: tuple[dict, ...]  # name, class, reason, attempts, rejections of each object without a place
+    failures: tuple[NotPlaced, ...]  # each object without a place
     saved: SavedPlacement | None  # the poses came from a saved placement
     noise: StereoNoise  # the frame's stereo error: in the record, and the compose's ground band
     record: ImageSetRecord  # the record so far (no objects, no status)
 
 
-def _saved_spec(m: Manifest, saved: SavedPlacement, k: int) -> ObjectSpec:
-    """The manifest object a saved placement names (saved_poses.py)."""
+def saved_spec(objects: tuple[ObjectSpec, ...], saved: SavedPlacement, k: int) -> ObjectSpec:
+    """The manifest object a saved placement names (placement/saved_poses.py)."""
     name = saved.objects[k].name
-    for spec in m.objects:
+    for spec in objects:
         if spec.name == name:
             return spec
     raise InputError(saved.path, f"saved placement names object {name!r}, which the manifest does not have "
-                                 f"({', '.join(repr(s.name) for s in m.objects)})")
+                                 f"({', '.join(repr(s.name) for s in objects)})")
 
 
-def object_model(m: Manifest, spec: ObjectSpec, key: str, index: int,
+def object_model(seed: int, spec: ObjectSpec, key: str, index: int,
                  pose: str | None = None) -> tuple[Model, CastDraw | None, dict | None]:
     """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
     drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
     posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
     builtin as it is. ``pose``: a person's pose kind (``walking`` / ``standing``; None: any)."""
     if spec.cast:
-        rng = cast_rng(m.seed, key, index)
+        rng = cast_rng(seed, key, index)
         model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng, pose)
         return model, drawn, None
     if spec.class_name in ("person", "rider") and posable(spec.model):
-        model, posed = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(m.seed, key, index), pose)
+        model, posed = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(seed, key, index), pose)
         return model, None, posed
     return load_model(spec.model, spec.size, spec.up, spec.forward), None, None
 
 
-def pose_kind(m: Manifest, spec: ObjectSpec, key: str, index: int) -> str | None:
+def pose_kind(seed: int, spec: ObjectSpec, key: str, index: int) -> str | None:
     """A person who follows the footway (orientation ``pedestrian``): ``walking`` or
     ``standing``, decided before the placement (its own draw of (seed, image set, index)) so
     that the model is posed so and the placement's checks use the posed model's extents; the
@@ -109,7 +141,7 @@ def pose_kind(m: Manifest, spec: ObjectSpec, key: str, index: int) -> str | None
     road). None for other objects."""
     if spec.class_name != "person" or orientation_for(spec.class_name, spec.orientation) != "pedestrian":
         return None
-    rng = np.random.default_rng([int(m.seed), zlib.crc32(key.encode()), int(index), 0x6B696E64])
+    rng = np.random.default_rng([int(seed), zlib.crc32(key.encode()), int(index), 0x6B696E64])
     return "walking" if rng.random() < WALKING_SHARE else "standing"
 
 
@@ -119,96 +151,95 @@ def _posed_as(drawn: CastDraw | None, pose: dict | None) -> str | None:
     return kind if kind in KINDS else None
 
 
-def _taken_by_polygons(m: Manifest, ident: ImageSetId) -> set[int]:
+def _taken_by_polygons(dataset: Path, ident: ImageSetId) -> set[int]:
     """With an input polygons file, the ids its entries number (cityscapesScripts counts them):
     an inserted instance appended after them gets the next."""
-    source = ident.path(m.dataset, "polygons")
+    source = ident.path(dataset, "polygons")
     if not source.is_file():
         return set()
     return {cid * INSTANCE_FACTOR + n - 1 for cid, n in polygon_instance_counts(source).items() if n}
 
 
-def _place_one(m: Manifest, prep: Prepared, spec: ObjectSpec, objects: list, taken: set[int],
+def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list, taken: set[int],
                saved_object=None, trace: list | None = None,
-               saved_from: SavedPlacement | None = None) -> "PlacedObject | dict":
+               saved_from: SavedPlacement | None = None) -> "PlacedObject | NotPlaced":
     """One object placed among ``objects`` (placed before it): its PlacedObject, or the
-    failure's record (name, class, reason, attempts, rejections)."""
+    failure."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
-    kind = pose_kind(m, spec, ident.key, len(objects)) if saved_object is None else None
-    model, drawn, pose = object_model(m, spec, ident.key, len(objects), kind)
+    kind = pose_kind(o.seed, spec, ident.key, len(objects)) if saved_object is None else None
+    model, drawn, pose = object_model(o.seed, spec, ident.key, len(objects), kind)
     if saved_object is not None and (problem := pose_problem(frame, model.extents, saved_object.matrix)):
         raise InputError(saved_from.path, f"saved placement object {saved_from.objects.index(saved_object)} "
                                           f"({spec.name!r}) {problem}")
     others = [o.placement for o in objects]
-    result = place_object(frame, spec.class_name, model.extents, rng, m.rules, spec.allowed_surfaces,
+    result = place_object(frame, spec.class_name, model.extents, rng, o.rules, spec.allowed_surfaces,
                           spec.orientation, others, trace=trace, pose_hint=_posed_as(drawn, pose)) \
         if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
     if result.placement is None:
-        return {"name": spec.name, "class": spec.class_name, "reason": "no valid placement",
-                "attempts": result.attempts, "rejections": result.rejections}
+        return NotPlaced(spec.name, spec.class_name, "no valid placement", result.attempts,
+                         tuple(result.rejections.items()))
     check = None
     if saved_object is not None:  # a saved pose is used as it is; the record says whether the
         # batch's rules accept it (Shift+S in the preview saves a pose that breaks them)
-        why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, m.rules,
+        why = check_pose(frame, spec.class_name, model.extents, result.placement.matrix, o.rules,
                          spec.allowed_surfaces, others)
-        check = {"ok": True}
+        check = PoseCheck(True)
         if why is not None:
-            check = {"ok": False, "rule": why.rule, "reason": why.reason, "detail": why.detail}
+            check = PoseCheck(False, why.rule, why.reason, why.detail)
             log.warning("%s: saved pose of %s breaks a placement rule: %s", ident.key, spec.name, why)
     try:
         inst = new_instance_id(image_set.instance_ids, label_id(spec.class_name), taken)
     except SynthComposeError as exc:  # the frame's instance ids (or its polygons) use them all
-        raise InputError(ident.path(m.dataset, "instanceIds"), str(exc)) from None
+        raise InputError(ident.path(o.dataset, "instanceIds"), str(exc)) from None
     taken.add(inst)
-    return PlacedObject(spec, model, result, inst, check, drawn, pose)
+    return PlacedObject(spec, model, result, inst, check, drawn, None if pose is None else MappingProxyType(pose))
 
 
-def place(m: Manifest, weights: np.ndarray, prep: Prepared, timings: dict[str, float],
+def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
-    """Draw ``m.objects_per_image`` objects (by ``weights``) and place each in the frame, the
+    """Draw ``o.objects_per_image`` objects (by ``weights``) and place each in the frame, the
     ones placed before it standing; or, with ``saved``, use its objects and poses as they are
     (the record says whether the rules accept them). ``trace``: a list that gets (candidate
     point, rejection reason) of every rejected candidate (the preview shows them)."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
     objects: list[PlacedObject] = []
-    failures: list[dict] = []
-    taken = _taken_by_polygons(m, ident)  # instance ids given
+    failures: list[NotPlaced] = []
+    taken = _taken_by_polygons(o.dataset, ident)  # instance ids given
     with timed(timings, "placement"):
-        for k in range(m.objects_per_image if saved is None else len(saved.objects)):
-            spec = m.objects[int(rng.choice(len(m.objects), p=weights))] if saved is None else \
-                _saved_spec(m, saved, k)
-            done = _place_one(m, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
+        for k in range(o.objects_per_image if saved is None else len(saved.objects)):
+            spec = o.objects[int(rng.choice(len(o.objects), p=weights))] if saved is None else \
+                saved_spec(o.objects, saved, k)
+            done = _place_one(o, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
             (objects if isinstance(done, PlacedObject) else failures).append(done)
         if saved is None and not objects and failures:
             # a frame that got none of its objects tries each of them once more (twice the
             # attempts): a frame with free road or footway gets an object where one fits
             again, failures = failures, []
             for f in again:
-                spec = next(s for s in m.objects if s.name == f["name"])
-                done = _place_one(m, prep, spec, objects, taken, None, trace)
+                spec = next(s for s in o.objects if s.name == f.name)
+                done = _place_one(o, prep, spec, objects, taken, None, trace)
                 if isinstance(done, PlacedObject):
                     objects.append(done)
                 else:
-                    rejections = Counter(f["rejections"]) + Counter(done["rejections"])
-                    failures.append(done | {"attempts": f["attempts"] + done["attempts"],
-                                            "rejections": dict(rejections)})
+                    rejections = Counter(dict(f.rejections)) + Counter(dict(done.rejections))
+                    failures.append(replace(done, attempts=f.attempts + done.attempts,
+                                            rejections=tuple(rejections.items())))
     noise = frame_noise(frame)
-    hand = hand_of(m.rules.traffic)
-    street = frame.cache.get(("street", hand))  # found when an object asked for it
+    hand = hand_of(o.rules.traffic)
+    street = frame.made(("street", hand))  # found when an object asked for it
     record = ImageSetRecord(
-        image_set=ident.key, synthcompose_version=__version__, config_sha256=m.config_hash, seed=m.seed,
-        source={k: str(ident.path(m.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
-        | ({"right": str(ident.path(m.dataset, "right"))} if prep.image_set.right_rgb is not None else {}),
-        source_fingerprint=input_fingerprint(m.dataset, ident),  # resume: a changed input is redone
+        image_set=ident.key, synthcompose_version=__version__, config_sha256=o.config_hash, seed=o.seed,
+        source={k: str(ident.path(o.dataset, k)) for k in ("rgb", "labelIds", "instanceIds", "disparity", "camera")}
+        | ({"right": str(ident.path(o.dataset, "right"))} if prep.image_set.right_rgb is not None else {}),
+        source_fingerprint=input_fingerprint(o.dataset, ident),  # resume: a changed input is redone
         labels="gtFine" if image_set.labelled else prep.surfaces.to_dict(),
         stereo_noise=noise.to_dict(),
-        lighting=fixed_record(m.lighting, **m.raw.get("lighting", {})) if m.lighting_mode == "fixed"
-        else {"mode": "estimate"},  # the estimate replaces it when the objects are shaded
-        not_placed=tuple(failures),
+        lighting=dict(o.light_record),  # an estimate replaces it when the objects are shaded
+        not_placed=tuple(f.to_json() for f in failures),
         placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
                                                    "sha256": saved.sha256},
         street=None if street is None else street.to_dict() | {
             "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)]},
-        placement_rules=rules_dict(m.rules))
+        placement_rules=rules_dict(o.rules))
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 

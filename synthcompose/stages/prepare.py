@@ -14,10 +14,10 @@ from synthcompose.io.files import read_input_bytes
 from synthcompose.lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
 from synthcompose.lighting.camera_match import ToneReference
 from synthcompose.lighting.plan import completed_labels
-from synthcompose.manifest import Manifest
 from synthcompose.placement.surfaces import Surfaces, frame_for
 
-from .timing import timed
+from .options import ReadOptions
+from .timing import Timings, timed
 
 
 def image_set_rng(seed: int, ident: ImageSetId) -> np.random.Generator:
@@ -34,7 +34,7 @@ class Prepared:
     camera_json: bytes
     depth: np.ndarray  # (H, W) float32 metres, inf where unknown
     frame: Frame
-    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (surfaces.py)
+    surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (placement/surfaces.py)
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
 
 
@@ -49,32 +49,32 @@ class PhotoLight:
     # labels has its found surfaces completed with the level ground and what stands (lighting.plan)
 
 
-def prepare(m: Manifest, ident: ImageSetId, timings: dict[str, float]) -> Prepared:
+def prepare(o: ReadOptions, ident: ImageSetId, timings: Timings) -> Prepared:
     """What the placement needs: the image set read, its depth and frame."""
     with timed(timings, "read"):
-        image_set = read_image_set(m.dataset, ident, right=m.right_view)
-        camera_json = read_input_bytes(ident.path(m.dataset, "camera"), 1 << 20)
+        image_set = read_image_set(o.dataset, ident, right=o.right_view)
+        camera_json = read_input_bytes(ident.path(o.dataset, "camera"), 1 << 20)
     with timed(timings, "geometry"):
         cam = image_set.camera
         depth = disparity_to_depth(image_set.disparity, cam)
-        rng = image_set_rng(m.seed, ident)
+        rng = image_set_rng(o.seed, ident)
         # no labels (test split): road and sidewalk found from the disparity and the photo
         frame, surfaces = frame_for(image_set, depth)
     return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng)
 
 
-def measure_light(m: Manifest, prep: Prepared, timings: dict[str, float]) -> PhotoLight:
+def measure_light(o: ReadOptions, prep: Prepared, timings: Timings) -> PhotoLight:
     """The photo's own light, and its camera's blur, noise and tones (what the manifest asks for)."""
     image_set, frame = prep.image_set, prep.frame
     with timed(timings, "lighting"):
         estimate = match = reference = labels = None
-        if m.lighting_mode == "estimate":
+        if o.estimate_light:
             labels = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, prep.depth,
                                                                               image_set.camera)
             estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera,
                                          labelled=frame.labelled, completed=labels)
-        if m.camera_match:
-            match = CameraMatch.measure(image_set.rgb, camera_noise_seed(m.seed, prep.ident.key))
+        if o.camera_match:
+            match = CameraMatch.measure(image_set.rgb, camera_noise_seed(o.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,
                                               frame.label_ids)
     return PhotoLight(estimate, match, reference, labels)

@@ -7,7 +7,7 @@ two photos, the disparity the left view writes for them.
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -27,13 +27,27 @@ def right_noise_seed(seed: int) -> int:
     return int(np.random.SeedSequence([int(seed), 1]).generate_state(1, np.uint64)[0] >> 1)
 
 
-def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, objects: Sequence[RenderObject],
-                lighting: Lighting, sun_mask: np.ndarray | None, scene: SceneLayers, classes: Sequence[int],
-                instances: Sequence[int], match: CameraMatch | None,
-                tones: Sequence[tuple[float, float]] | None) -> np.ndarray:
-    """(H, W, 3) uint8: the right photo with ``objects`` in it (as the left view's ``scene``
-    layers, ``sun_mask``, camera ``match`` and ``tones`` shaded them); unchanged where nothing
-    of them is in the right camera's view."""
+@dataclass(frozen=True, eq=False)
+class LeftShading:
+    """How the left view shaded its objects; the right view shades them the same way."""
+
+    objects: Sequence[RenderObject]
+    lighting: Lighting
+    sun_mask: np.ndarray | None  # where the sun reaches the real ground
+    scene: SceneLayers  # the left frame's layers
+    classes: Sequence[int]  # label id of each object
+    instances: Sequence[int]  # instance id of each object
+    match: CameraMatch | None  # the camera's blur and noise
+    tones: Sequence[tuple[float, float]] | None  # (gain, saturation) of each object
+
+
+def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_shading: LeftShading) -> np.ndarray:
+    """(H, W, 3) uint8: the right photo with the left view's objects in it (shaded as the left
+    view shaded them); unchanged where nothing of them is in the right camera's view."""
+    objects, lighting, sun_mask, scene = (left_shading.objects, left_shading.lighting, left_shading.sun_mask,
+                                          left_shading.scene)
+    classes, instances, match, tones = (left_shading.classes, left_shading.instances, left_shading.match,
+                                        left_shading.tones)
     photo = prep.image_set.right_rgb
     left = prep.image_set.camera
     cam = left.right_camera()

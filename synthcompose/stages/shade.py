@@ -8,6 +8,8 @@ front. Runs on the thread that owns the GL context.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -19,16 +21,16 @@ from synthcompose.io.files import DISPARITY_SCALE
 from synthcompose.labels import label_id
 from synthcompose.lighting.camera_match import object_tones
 from synthcompose.look.appearance import Appearance, appearance_rng, draw_appearance
-from synthcompose.manifest import Manifest
 from synthcompose.placement import GROUND_LEVEL, Placement
 from synthcompose.placement.noise import K_SIGMA
 from synthcompose.record import ImageSetRecord
 from synthcompose.render import Renderer, RenderObject, amodal_boxes, roi_for
 
+from .options import ShadeOptions
 from .place import Placed
 from .prepare import PhotoLight, Prepared
-from .right import shade_right
-from .timing import timed
+from .right import LeftShading, shade_right
+from .timing import Timings, timed
 
 
 def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: list[int]) -> tuple:
@@ -68,7 +70,7 @@ class ObjectLook:
     plane_albedo: tuple  # the real ground's linear colour under it
     sun_visibility: float  # 0: it stands in a real cast shadow
     appearance: Appearance  # its paint or clothes
-    camera_look: dict | None  # the camera's tone on it (gain, saturation, reference, targets)
+    camera_look: Mapping[str, Any] | None  # the camera's tone on it (gain, saturation, reference, targets)
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,26 +81,26 @@ class Shaded:
     looks: tuple[ObjectLook, ...]
     record: ImageSetRecord  # the placement's, with the lighting and camera match
     composed: Composed
-    amodal: list  # amodal 2D box of each object (annotations)
+    amodal: tuple  # amodal 2D box of each object, or None (annotations)
     rendered: np.ndarray  # rendered pixels of each object index (0: none)
     camera: Camera
     camera_json: bytes
-    passes: dict  # name -> copy of the render pass (ROI-sized), for the passes asked for
+    passes: Mapping[str, np.ndarray]  # name -> copy of the render pass (ROI-sized), for the passes asked for
     roi: tuple | None  # (x0, y0, width, height) of the render's ROI
     right_rgb: np.ndarray | None = None  # (H, W, 3) uint8: the right photo with the objects (stages.right)
 
 
-def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, light: PhotoLight, placed: Placed,
-          timings: dict[str, float], keep: tuple[str, ...] = ()) -> Shaded:
+def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepared, light: PhotoLight, placed: Placed,
+          timings: Timings, keep: tuple[str, ...] = ()) -> Shaded:
     """Light, render and compose ``placed`` (at least one object) into the prepared photo, in
     the photo's ``light``; and into the right photo of the pair, when it was read (the
     manifest's ``render.right_view``, :func:`stages.prepare`). ``keep``: render passes to copy out before they are released (the
     preview's)."""
     image_set, frame, cam = prep.image_set, prep.frame, prep.image_set.camera
     record = placed.record
-    lighting, estimate, match = m.lighting, light.estimate, light.match
+    lighting, estimate, match = o.lighting, light.estimate, light.match
     if estimate is not None:
-        lighting = estimate.to_lighting(estimate.exposure if m.match_exposure else 1.0)
+        lighting = estimate.to_lighting(estimate.exposure if o.match_exposure else 1.0)
         record = record.with_(lighting=estimate.to_dict() | {"renderer": lighting.to_dict()})
     if match is not None:
         record = record.with_(camera_match=match.to_dict())
@@ -113,7 +115,7 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
             # an object standing in a real cast shadow gets no sun
             sun = 1.0 if estimate is None else estimate.sun_visibility(int(ground_labels[pl.pixel]), albedo)
             # this object's paint or clothes and its plates, drawn apart from the placement's draws
-            look = draw_appearance(obj.model, spec.class_name, appearance_rng(m.seed, prep.ident.key, len(objects))) \
+            look = draw_appearance(obj.model, spec.class_name, appearance_rng(o.seed, prep.ident.key, len(objects))) \
                 if spec.appearance == "varied" else Appearance()
             objects.append(RenderObject(obj.model, pl.matrix, albedo, sun_visibility=sun, recolour=look.recolour,
                                         plate=look.plate))
@@ -137,7 +139,7 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
         if ids is not None and any(p.label for o in placed.objects for p in o.model.parts):
             ids[passes.read("part") > 0] = 0  # each object's own class: not a sign's pole
         if passes is not None and light.reference is not None:  # the camera's look on the objects
-            fallback = estimate.exposure if estimate is not None and not m.match_exposure else 1.0
+            fallback = estimate.exposure if estimate is not None and not o.match_exposure else 1.0
             camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],
                                         light.reference, fallback, match)
             tones = [(t["gain"], t["saturation"]) for t in camera_looks]
@@ -156,7 +158,8 @@ def shade(renderer: Renderer, composer: Composer, m: Manifest, prep: Prepared, l
     right_rgb = None
     if image_set.right_rgb is not None:
         with timed(timings, "right"):
-            right_rgb = shade_right(renderer, composer, prep, objects, lighting, sun_mask, scene, classes, instances,
-                                    match, tones)
-    return Shaded(placed, tuple(ObjectLook(a, s, lk, c) for (a, s, lk), c in zip(looks, camera_looks)), record,
-                  composed, amodal, rendered, cam, prep.camera_json, kept, roi, right_rgb)
+            right_rgb = shade_right(renderer, composer, prep, LeftShading(objects, lighting, sun_mask, scene, classes,
+                                                                          instances, match, tones))
+    return Shaded(placed, tuple(ObjectLook(a, s, lk, None if c is None else MappingProxyType(c))
+                                  for (a, s, lk), c in zip(looks, camera_looks)), record,
+                  composed, tuple(amodal), rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)

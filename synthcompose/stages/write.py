@@ -7,6 +7,7 @@ import math
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -14,15 +15,15 @@ from synthcompose.errors import SynthComposeError
 from synthcompose.io.dataset import ImageSetId
 from synthcompose.io.files import encode_rle
 from synthcompose.labels import label_id
-from synthcompose.manifest import Manifest
 from synthcompose.record import ObjectPose, ObjectRecord, Status
 from synthcompose.render import mask_box
 from synthcompose.write.annotations import write_frame_annotations
 from synthcompose.write.outputs import write_outputs, write_record
 
+from .options import WriteOptions
 from .place import Placed
 from .shade import Shaded
-from .timing import timed
+from .timing import Timings, timed
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,7 @@ class Outcome:
     status: Status
     reason: str | None = None
     objects: int = 0
-    timings: dict[str, float] = field(default_factory=dict)
+    timings: Mapping[str, float] = field(default_factory=dict)  # stage -> wall seconds
     resumed: bool = False  # complete from an earlier run with the same configuration
 
 
@@ -66,11 +67,11 @@ def object_records(s: Shaded) -> tuple[ObjectRecord, ...]:
             truncated=pl.truncated,
             placement={"attempts": obj.result.attempts, "rejections": obj.result.rejections},
             appearance=look.appearance.to_dict() | (dict(obj.cast.appearance) if obj.cast is not None else {})
-            | ({"pose": obj.pose} if obj.pose is not None else {}),
+            | ({"pose": dict(obj.pose)} if obj.pose is not None else {}),
             camera_look=None if look.camera_look is None else
             {k2: (round(v, 4) if isinstance(v, float) else v) for k2, v in look.camera_look.items()},
             placement_source="saved" if s.placed.saved is not None else "random",
-            placement_check=obj.check,
+            placement_check=None if obj.check is None else obj.check.to_json(),
             bbox_2d_amodal=None if s.amodal[k - 1] is None else tuple(s.amodal[k - 1]),
             mask_rle=encode_rle(mask), traffic=None if pl.traffic is None else pl.traffic.to_dict()))
     return tuple(out)
@@ -88,30 +89,30 @@ def check_visible(s: Shaded) -> None:
                                     "the image set is not written")
 
 
-def write_done(m: Manifest, ident: ImageSetId, s: Shaded, timings: dict[str, float]) -> Outcome:
+def write_done(o: WriteOptions, ident: ImageSetId, s: Shaded, timings: Timings) -> Outcome:
     """The image set's files, annotations and record (last); none with an unseen object."""
     composed = s.composed
     check_visible(s)
     with timed(timings, "write"):
-        write_outputs(m.output, ident, composed, s.camera_json, s.right_rgb)
+        write_outputs(o.output, ident, composed, s.camera_json, s.right_rgb)
         objects = object_records(s)
         h, w = composed.visible.shape
         record = s.record.with_(objects=objects, status=Status.DONE, views=("left", "right") if s.right_rgb is not None
                                 else ("left",), image={
             "file_name": ident.path(Path("."), "rgb").as_posix(), "width": w, "height": h})
         # gtFine polygons and gtBbox3d files; before the record, which is written last
-        write_frame_annotations(m.output, m.dataset, ident, objects, [o.placement.matrix for o in s.placed.objects],
+        write_frame_annotations(o.output, o.dataset, ident, objects, [o.placement.matrix for o in s.placed.objects],
                                 composed.visible, composed.label_ids, composed.instance_ids, s.camera)
-        write_record(m.output, ident, record.to_json())
-    return Outcome(ident.key, Status.DONE, None, len(objects), timings)
+        write_record(o.output, ident, record.to_json())
+    return Outcome(ident.key, Status.DONE, None, len(objects), timings.seconds())
 
 
-def write_skipped(m: Manifest, ident: ImageSetId, placed: Placed, timings: dict[str, float]) -> Outcome:
+def write_skipped(o: WriteOptions, ident: ImageSetId, placed: Placed, timings: Timings) -> Outcome:
     """No object found a place: the record alone, saying why."""
     with timed(timings, "write"):
-        write_record(m.output, ident, placed.record.with_(status=Status.NO_PLACEMENT).to_json())
+        write_record(o.output, ident, placed.record.with_(status=Status.NO_PLACEMENT).to_json())
     reasons: Counter[str] = Counter()
     for f in placed.failures:
-        reasons.update(f["rejections"])
+        reasons.update(dict(f.rejections))
     why = ", ".join(f"{k} x{v}" for k, v in reasons.most_common(3)) or "no candidates"
-    return Outcome(ident.key, Status.SKIPPED, f"no valid placement ({why})", timings=timings)
+    return Outcome(ident.key, Status.SKIPPED, f"no valid placement ({why})", timings=timings.seconds())

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -228,8 +229,35 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
     heading = math.radians(_option(heading_deg, "heading_deg", MAX_HEADING_DEG))
     grade = _option(slope, "slope", MAX_SLOPE)
     fall = _option(camber, "camber", MAX_CAMBER) if road else 0.0
-
     kind = StreetKind.of(street)
+    plan, draws = _street_plan(rng, width, height, road, heading, grade, fall, kind)
+    boxes = _buildings(rng, plan, draws)
+    poles, n_corner = _poles(rng, plan, occluding_pole)
+    camera = plan.camera
+    cam_xy = np.array([float(v) for v in plan.to_street(camera.x, camera.y)])
+    boxes += _parked_cars(rng, plan, kind, poles[:n_corner], cam_xy)
+    boxes += _pedestrians(rng, plan, poles)
+    if not occluding_pole:
+        poles = poles[n_corner:]
+    scene = dataclasses.replace(plan, boxes=tuple(boxes), poles=tuple(poles), lane_dash=draws.dash, sun=draws.sun,
+                                noise_seed=int(rng.integers(0, 2**62)))
+    if light is not None:  # optional light control (SceneLight)
+        scene = dataclasses.replace(scene, sun=light.direction, light=light)
+    return scene
+
+
+class _Draws(NamedTuple):
+    """What the street plan drew besides the plan itself."""
+
+    x_end: float  # where the far building rows end
+    end_row: bool  # a building row across the street's end
+    dash: tuple[float, float, float]  # the lane marking's dash, gap and phase
+    sun: tuple[float, float, float]  # the default shading's sun direction
+
+
+def _street_plan(rng: np.random.Generator, width: int, height: int, road: bool, heading: float, grade: float,
+                 fall: float, kind: "StreetKind | None") -> tuple[StreetScene, _Draws]:
+    """The camera and the street's cross-section, crossing and frame (no boxes, no poles yet)."""
     camera = random_camera(rng, width, height)
     w = float(rng.uniform(4.2, 6.0))
     if kind is not None:
@@ -258,25 +286,38 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
                        street_origin=origin, slope=grade, camber=fall, **traffic)
     a_o, b_o = (float(v) for v in plan.to_street(0.0, 0.0))
     plan = dataclasses.replace(plan, crown_z=fall * abs(b_o) - grade * a_o + 0.0)
+    return plan, _Draws(x_end, end_row, dash, sun)
 
+
+def _buildings(rng: np.random.Generator, plan: StreetScene, draws: _Draws) -> list[Box]:
+    """The building rows on both sides, before and after the crossing, and the end row."""
+    w, walk, (xc0, xc1), grade, fall = (plan.road_half_width, plan.sidewalk_width, plan.crossing, plan.slope,
+                                        plan.camber)
+    x_end = draws.x_end
     boxes: list[Box] = []
     after = xc1 + (0.05 if grade != 0.0 else 0.0)  # keep facades off the far kerb's plane
     for side in (1, -1):
-        extend = None if end_row else 3000.0
+        extend = None if draws.end_row else 3000.0
         boxes += _building_row(rng, side, -25.0, xc0, w + walk, plan, None)
         boxes += _building_row(rng, side, after, x_end, w + walk, plan, extend)
-    if end_row:
+    if draws.end_row:
         base = float(min(plan.road_edge_height(x_end), plan.road_edge_height(x_end + 25.0)))
         rise = abs(grade) * 25.0 + abs(fall) * w
         boxes.append(Box((x_end, -150.0, base), (x_end + 25.0, 150.0, base + float(rng.uniform(12.0, 26.0)) + rise),
                          "building", label_id("building"), _jitter(rng, _pick(rng, _FACADES), 8), "facade",
                          floor_height=float(rng.uniform(2.9, 3.5)), window_spacing=float(rng.uniform(2.2, 3.2))))
+    return boxes
+
+
+def _poles(rng: np.random.Generator, plan: StreetScene, occluding_pole: bool) -> tuple[list[Pole], int]:
+    """The poles and how many of them (the first) stand at the near corners of the cross street;
+    the rest along the kerbs."""
+    w, (xc0, xc1), grade, heading = plan.road_half_width, plan.crossing, plan.slope, plan.street_heading
 
     def pole_at(a: float, b: float, radius: float, tall: float) -> Pole:
         # sidewalk: the ground under the pole only varies along a
         return Pole(a, b, radius, tall, float(plan.sidewalk_height(a)) - radius * abs(grade))
 
-    # poles: 1-2 at the near corners of the cross street, the rest along the kerbs
     poles: list[Pole] = []
     corner_sides = [1, -1] if rng.random() < 0.4 else [int(rng.choice([1, -1]))]
     for side in corner_sides:
@@ -298,13 +339,18 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         py = side * (w + float(rng.uniform(0.35, 0.6)))
         radius, tall = float(rng.uniform(0.06, 0.1)), float(rng.uniform(3.6, 4.8))
         poles.append(pole_at(px, py, radius, tall))
-    corner = poles[:len(corner_sides)]
+    return poles, len(corner_sides)
 
-    # parked cars along the kerbs, in their side's direction of travel (right-hand traffic)
+
+def _parked_cars(rng: np.random.Generator, plan: StreetScene, kind: "StreetKind | None", corner: list[Pole],
+                 cam_xy: np.ndarray) -> list[Box]:
+    """Parked cars along the kerbs (or in bays), in their side's direction of travel (right-hand
+    traffic), none at the crossings, none hiding a corner pole."""
+    w, (xc0, xc1), grade, fall = plan.road_half_width, plan.crossing, plan.slope, plan.camber
+    boxes: list[Box] = []
     car_id = label_id("car") * INSTANCE_FACTOR
     n_cars = int(rng.integers(2, 6))
     placed: list[tuple[float, float, float]] = []  # (x_min, x_max, side)
-    cam_xy = np.array([float(v) for v in plan.to_street(camera.x, camera.y)])
     if kind is not None and kind.parking != "parallel":
         n_cars = 0  # bays instead
         boxes += _bay_cars(rng, plan, kind, corner, cam_xy, car_id)
@@ -331,8 +377,13 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         boxes += _car_boxes(rng, xc, yc, ground, facing, car_id + len(placed),
                             _ground_rotation(grade, -fall * side), 0 if kind is None else facing)
         placed.append((x0, x1, side))
+    return boxes
 
-    # 0-2 pedestrians on the sidewalks
+
+def _pedestrians(rng: np.random.Generator, plan: StreetScene, poles: list[Pole]) -> list[Box]:
+    """0-2 pedestrians on the sidewalks, away from the crossing and the poles."""
+    w, walk, (xc0, xc1) = plan.road_half_width, plan.sidewalk_width, plan.crossing
+    boxes: list[Box] = []
     person_id = label_id("person") * INSTANCE_FACTOR
     n_people, people = int(rng.integers(0, 3)), 0
     for _ in range(200):
@@ -345,12 +396,5 @@ def random_scene(rng: np.random.Generator, width: int, height: int, *, road: boo
         ground = float(min(plan.sidewalk_height(px - 0.14), plan.sidewalk_height(px + 0.14)))
         boxes += _person_boxes(rng, px, py, ground, person_id + people)
         people += 1
-
-    if not occluding_pole:
-        poles = poles[len(corner_sides):]
-    scene = dataclasses.replace(plan, boxes=tuple(boxes), poles=tuple(poles), lane_dash=dash, sun=sun,
-                                noise_seed=int(rng.integers(0, 2**62)))
-    if light is not None:  # optional light control (SceneLight)
-        scene = dataclasses.replace(scene, sun=light.direction, light=light)
-    return scene
+    return boxes
 

@@ -1,0 +1,167 @@
+"""The sun and the ground contact (issue 29) on generated data: sunny generated streets are called
+sunny from the shadow edges on their ground and their sun found along them, overcast ones not;
+an inserted car darkens the ground at its foot as real cars do, its ground plane leaves no
+outline, its sun shadow's penumbra grows away from the caster; the measures themselves
+(shadowlook) tell a receiver's box from a smooth shadow."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from evaluation import shadowlook
+from synthcompose.camera import Camera
+from synthcompose.colour import SRGB8_TO_LINEAR, linear_to_srgb
+from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.io.dataset import read_image_set
+from synthcompose.lighting import estimate_lighting, plansun
+from synthcompose.models.load import load_model
+from synthcompose.render import Lighting, Renderer, RenderObject
+from synthcompose.synthetic import make_sample
+from synthcompose.synthetic.light import sunny_light
+
+from ..tolerances import (
+    OUTLINE_SMOOTH_MAX,
+    PENUMBRA_GROWTH_MIN,
+    PLANE_BORDER_RATIO,
+    SUN_AZIMUTH_AXIS_DEG,
+    UNDER_REAL_RANGE,
+)
+
+CAR = str(Path(__file__).resolve().parents[2] / "assets" / "models" / "openmaterial_car" / "vehicle_example.gltf")
+# the Cityscapes camera at full resolution (the under measure's bands are in its pixels)
+CAMERA = Camera(fx=2262.0, fy=2262.0, u0=1024.0, v0=480.0, baseline=0.22, x=1.7, y=0.0, z=1.22, yaw=0.0,
+                pitch=0.04, roll=0.0, width=2048, height=1024)
+OVERCAST = Lighting((0.0, 0.0, 1.0), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.25, 0.25, 0.25))
+
+
+def _pose(x: float, y: float, yaw: float) -> np.ndarray:
+    m = np.eye(4)
+    c, s = math.cos(yaw), math.sin(yaw)
+    m[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    m[:3, 3] = (x, y, 0.0)
+    return m
+
+
+def _composite(gl, objects, light, cam=CAMERA):
+    """(photo, output, object index per pixel, plane coverage, ratio Irpv / Ir): a flat grey
+    road photo, the objects put in by the ratio of the lit pass's planes (the compose's
+    R (Irpv / Ir) where the plane shows), the objects' own pixels white."""
+    rng = np.random.default_rng(1)
+    photo = np.clip(110 + rng.normal(0, 3, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
+    passes = Renderer(gl).render(cam, objects, light, photo=photo)
+    irpv, ir = passes.read("irpv")[..., 1], passes.read("ir")[..., 1]
+    ids, plane = passes.read("id"), passes.read("plane")[..., 1]
+    rows, cols = passes.roi.slices
+    ratio = np.ones(photo.shape[:2], np.float32)
+    ratio[rows, cols] = np.where(ir > 0, irpv / np.maximum(ir, 1e-6), 1.0)
+    out = (linear_to_srgb(SRGB8_TO_LINEAR[photo] * ratio[..., None]) * 255).round().astype(np.uint8)
+    index = np.zeros(photo.shape[:2], np.uint32)
+    index[rows, cols] = ids
+    cover = np.zeros(photo.shape[:2], np.float32)
+    cover[rows, cols] = plane
+    out[index > 0] = 250
+    return photo, out, index, cover, ratio
+
+
+@pytest.fixture(scope="module")
+def car():
+    return load_model(CAR, (("length", 4.4),), "+y", "+x")
+
+
+def test_the_ground_planes_darkening_fades_out_before_their_edges(gl, car):
+    # the plane's border (its pixels next to the untouched photo) keeps the photo: no box on the road
+    objects = [RenderObject(car, _pose(12.0, 1.5, 0.3), (0.15, 0.15, 0.15))]
+    for light in (OVERCAST, Lighting.daylight(elevation_deg=40.0, azimuth_deg=60.0, sun_fraction=0.6)):
+        _, _, index, cover, ratio = _composite(gl, objects, light)
+        inside = cover > 0.99
+        edge = ~(cv2.erode(inside.astype(np.uint8), np.ones((3, 3), np.uint8), borderValue=1) > 0)
+        near_object = cv2.dilate((index > 0).astype(np.uint8), np.ones((9, 9), np.uint8)) > 0
+        border = inside & edge & ~near_object  # where the plane meets the photo
+        assert border.sum() > 200
+        assert np.abs(ratio[border] - 1.0).max() < PLANE_BORDER_RATIO
+
+
+def test_a_car_darkens_the_ground_at_its_foot_as_real_cars_do(gl, car):
+    # overcast: the ground 2-8 px under the car (as annotated: tyre to tyre) over 20-40 px under
+    objects = [RenderObject(car, _pose(12.0, 1.5, 0.3), (0.15, 0.15, 0.15)),
+               RenderObject(car, _pose(20.0, -2.5, 0.0), (0.15, 0.15, 0.15))]
+    photo, out, index, _, _ = _composite(gl, objects, OVERCAST)
+    for k in (1, 2):
+        u = shadowlook.under(out, shadowlook.annotated(index == k), index == 0, index > 0)
+        assert u is not None and UNDER_REAL_RANGE[0] <= u <= 0.9, (k, u)
+    # and no straight line near it in the ratio output / input
+    lines = shadowlook.outline(photo, out, [shadowlook.annotated(index == k) for k in (1, 2)])
+    assert max(lines) <= OUTLINE_SMOOTH_MAX, lines
+
+
+def test_the_sun_shadows_penumbra_grows_away_from_the_caster(gl):
+    # a camera 10 m up looks straight down (1 cm a pixel); a 4 m pole 2.5 m ahead of it under a
+    # sun ahead, 30 degrees up, throws a 7 m shadow back along -x
+    cam = Camera(fx=1000.0, fy=1000.0, u0=600.0, v0=600.0, baseline=0.2, x=0.0, y=0.0, z=10.0, yaw=0.0,
+                 pitch=math.radians(89.9), roll=0.0, width=1200, height=1200)
+    pole = load_model("builtin:traffic-sign", (("height", 4.0),))
+    light = Lighting.daylight(elevation_deg=30.0, azimuth_deg=0.0, sun_fraction=0.7)
+    _, _, _, _, ratio = _composite(gl, [RenderObject(pole, _pose(2.5, 0.0, 0.0), (0.2, 0.2, 0.2))], light, cam)
+    widths = []
+    for x in (2.0, -1.3):  # metres along x: 0.5 m and 3.8 m from the pole's foot (short of the sign's shadow)
+        across = np.column_stack([np.full(241, x), np.linspace(-0.6, 0.6, 241), np.zeros(241)])
+        uv = cam.project(across @ cam.optical_from_vehicle[:3, :3].T + cam.optical_from_vehicle[:3, 3])
+        profile = ratio[np.rint(uv[:, 1]).astype(int), np.rint(uv[:, 0]).astype(int)]
+        lo = float(profile.min())
+        assert lo < 0.6  # the shadow is there
+        frac = (profile - lo) / (1.0 - lo)
+        widths.append(int(((frac > 0.1) & (frac < 0.9)).sum()))  # samples of 5 mm in the penumbrae
+    assert widths[1] >= PENUMBRA_GROWTH_MIN * max(widths[0], 1), widths
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the generator's sunny streets cast their shadow edges on the kerbs' faces, not on level road "
+    "3-20 m ahead, which the ground plan (rightly) leaves out since it keeps non-level ground off; "
+    "the real street frames are called sunny 12/13 (tests/lighting/test_real_sun.py). Open: issue 29"))
+def test_a_sunny_generated_street_is_called_sunny_along_its_sun_and_an_overcast_one_not(tmp_path):
+    sunny = make_sample(tmp_path / "sunny", count=1, width=1024, height=512, seed=3, light="sunny")[0]
+    overcast = make_sample(tmp_path / "overcast", count=1, width=1024, height=512, seed=3)[0]
+    truth = sunny_light(np.random.default_rng([3, 0, 1]))
+    for root, ident, want in ((tmp_path / "sunny", sunny, True), (tmp_path / "overcast", overcast, False)):
+        s = read_image_set(root, ident)
+        depth = disparity_to_depth(s.disparity, s.camera)
+        est = estimate_lighting(s.rgb, s.label_ids, depth, s.camera)
+        ps, _, _ = plansun.measure(s.rgb, s.label_ids, depth, s.camera)
+        assert ps.sunny == want and est.sunny == want, (ident.name, ps.to_dict())
+        if want:
+            assert shadowlook.axis_angle(est.sun_azimuth_deg, truth.sun_azimuth_deg) <= SUN_AZIMUTH_AXIS_DEG
+
+
+def test_the_outline_measure_sees_a_receivers_box_and_not_a_smooth_shadow():
+    rng = np.random.default_rng(0)
+    src = np.clip(100 + rng.normal(0, 3, (400, 600, 3)), 0, 255).astype(np.uint8)
+    mask = np.zeros((400, 600), bool)
+    mask[150:230, 250:350] = True
+    yy, xx = np.mgrid[0:400, 0:600]
+    box = np.where((yy > 120) & (yy < 280) & (xx > 180) & (xx < 420), 0.93, 1.0)
+    smooth = 1.0 - 0.4 * np.exp(-(((yy - 235) / 25.0) ** 2 + ((xx - 300) / 70.0) ** 2))
+    for ratio, boxy in ((box, True), (smooth, False)):
+        out = (linear_to_srgb(SRGB8_TO_LINEAR[src] * ratio[..., None]) * 255).round().astype(np.uint8)
+        value = shadowlook.outline(src, out, [mask])[0]
+        assert (value > 0.2) == boxy, (boxy, value)
+
+
+def test_the_under_measure_and_the_labels_file(tmp_path):
+    img = np.full((200, 300, 3), 120, np.uint8)
+    mask = np.zeros((200, 300), bool)
+    mask[50:100, 100:200] = True
+    img[102:110, 100:200] = 60  # darker at its foot
+    ground = ~mask
+    assert shadowlook.under(img, mask, ground) < 0.5
+    assert shadowlook.under(np.full_like(img, 120), mask, ground) == pytest.approx(1.0)
+    assert shadowlook.axis_angle(10.0, 185.0) == pytest.approx(5.0)
+    f = tmp_path / "labels.txt"
+    f.write_text("# by eye\nsunny a_1 b_2\novercast c_3\n")
+    assert shadowlook.read_sun_labels(f) == {"a_1": "sunny", "b_2": "sunny", "c_3": "overcast"}
+    f.write_text("cloudy a_1\n")
+    with pytest.raises(ValueError, match="labels.txt"):
+        shadowlook.read_sun_labels(f)

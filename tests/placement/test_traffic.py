@@ -1,0 +1,194 @@
+"""Traffic sense on generated streets laid out as traffic uses them (synthetic.streets): the
+street found (centre line, kerbs, crossings), the lanes' directions, and where vehicles,
+people and signs are placed, measured against the scene's exact layout."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from synthcompose.geometry.depth import disparity_to_depth, make_frame
+from synthcompose.placement import PlacementRules, footprint_corners, footprints_overlap, place_object
+from synthcompose.placement.lanes import _carriageway_lanes
+from synthcompose.placement.street import Carriageway, StreetLine, find_street
+from synthcompose.placement.traffic import SIGN_EDGE, sign_distance
+from synthcompose.synthetic import StreetKind, random_scene, render_scene
+
+from ..helpers import SIZES
+from ..tolerances import CAR_YAW_TO_ROAD_DEG, LANE_CENTRED_M, STREET_CENTRE_M, STREET_KERB_M, TRAFFIC_PLACED_MIN
+
+W, H = 1024, 512
+RULES = PlacementRules(distance=(7.0, 40.0))
+
+
+def _frame(kind: str, seed: int):
+    scene = random_scene(np.random.default_rng([21, seed]), W, H, street=kind)
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera,
+                       photo=arrays["rgb"])
+    return scene, frame
+
+
+@pytest.fixture(scope="module", params=[("two-way", 0), ("two-way", 1), ("one-way", 0), ("zebra", 0)],
+                ids=lambda p: f"{p[0]}-{p[1]}")
+def street(request):
+    return _frame(*request.param)
+
+
+def _street_offset(scene, frame, b: float, a: float = 15.0) -> float:
+    """The road-frame offset s (street.py) of the scene's street line at b."""
+    x, y = scene.to_vehicle(a, b)
+    return float(find_street(frame).to_road(np.array([[float(x), float(y)]]))[1][0])
+
+
+def _facing_along(scene, yaw: float) -> int:
+    """+1 when a heading points along the street (away from the camera), -1 against it."""
+    return 1 if math.cos(yaw - scene.street_heading) > 0 else -1
+
+
+def test_the_street_is_found_centre_line_and_kerbs(street):
+    scene, frame = street
+    st = find_street(frame)
+    ego = st.ego
+    w = scene.road_half_width
+    assert abs(ego.right - _street_offset(scene, frame, -w)) <= STREET_KERB_M
+    assert abs(ego.left - _street_offset(scene, frame, w)) <= STREET_KERB_M
+    if StreetKind.of(scene.street_kind).one_way:
+        assert ego.centre is None  # no centre line, the ego vehicle in the middle: one-way
+    else:
+        assert ego.centre is not None and abs(ego.centre - _street_offset(scene, frame, 0.0)) <= STREET_CENTRE_M
+    if scene.zebra is not None:
+        assert any(c.start <= scene.zebra[1] + 1.0 and c.end >= scene.zebra[0] - 1.0 for c in st.crossings)
+
+
+@pytest.mark.parametrize("mode", ["along-road", "moving", "parked"])
+def test_vehicles_face_their_lane_centred_never_across_a_marking(street, mode):
+    """Right-hand traffic: right of the centre line (street b < 0) a vehicle faces along the
+    street, left of it against; on a one-way street all along. A moving one is centred in its
+    true lane (centre line, parking lines) and its footprint stays inside it; a parked one stands
+    in the parking strip."""
+    scene, frame = street
+    kind = StreetKind.of(scene.street_kind)
+    w, strip = scene.road_half_width, kind.depth
+    rng = np.random.default_rng(4)
+    placed, asked = [], 4
+    for _ in range(asked):
+        res = place_object(frame, "car", SIZES["car"], rng, RULES, orientation=mode, others=placed)
+        if res.placement is None:
+            continue
+        p = res.placement
+        placed.append(p)
+        a, b = (float(v) for v in scene.to_street(*p.position[:2]))
+        corners = footprint_corners(p.matrix, p.extents)
+        cb = np.array([float(scene.to_street(x, y)[1]) for x, y in corners])
+        along = _facing_along(scene, p.yaw)
+        want = 1 if kind.one_way or b < 0 else -1
+        assert along == want, (p.traffic, a, b)
+        assert p.traffic.direction == ("with" if want > 0 else "against")
+        off = math.degrees(abs(math.remainder(p.yaw - scene.street_heading, math.pi)))
+        assert off <= CAR_YAW_TO_ROAD_DEG
+        if p.traffic.role == "moving":
+            assert mode != "parked"
+            # the true lanes: the centre line (two-way) and the parking lines bound them
+            edges = [-(w - strip), w - strip] + ([] if kind.one_way else [0.0])
+            lo = max([e for e in edges if e <= b], default=-(w - strip))
+            hi = min([e for e in edges if e >= b], default=w - strip)
+            if kind.one_way:  # two unmarked lanes: the street's own split
+                lo, hi = (-(w - strip), 0.0) if b < 0 else (0.0, w - strip)
+            assert abs(b - (lo + hi) / 2) <= LANE_CENTRED_M + 0.3 * kind.one_way, (b, lo, hi)
+            assert cb.min() >= lo - 0.1 and cb.max() <= hi + 0.1, "across a lane marking"
+        else:
+            assert mode != "moving" and p.traffic.role == "parked"
+            assert abs(b) >= w - strip - 0.1 and cb.min() >= -w - 0.1 and cb.max() <= w + 0.1
+    if mode != "parked":  # free places at the kerb are few where the parked rows are dense
+        assert len(placed) >= TRAFFIC_PLACED_MIN * asked, f"{len(placed)}/{asked} placed"
+
+
+def test_people_stand_on_the_footway_walking_or_waiting(street):
+    scene, frame = street
+    rng = np.random.default_rng(6)
+    placed = []
+    for _ in range(3):
+        res = place_object(frame, "person", SIZES["person"], rng, RULES, others=placed)
+        if res.placement is None:
+            continue
+        p = res.placement
+        placed.append(p)
+        corners = footprint_corners(p.matrix, p.extents)
+        assert all(str(scene.surface_label(x, y)) == "sidewalk" for x, y in corners), "a person off the footway"
+        assert p.pose_hint in ("walking", "standing")
+        if p.pose_hint == "walking":  # along the footway, either way
+            assert math.degrees(abs(math.remainder(p.yaw - scene.street_heading, math.pi))) <= CAR_YAW_TO_ROAD_DEG
+    assert placed
+    for i in range(len(placed)):
+        for j in range(i + 1, len(placed)):
+            a = footprint_corners(placed[i].matrix, placed[i].extents, 0.25)
+            b = footprint_corners(placed[j].matrix, placed[j].extents, 0.25)
+            assert not footprints_overlap(a, b), "people closer than 0.5 m"
+
+
+def test_signs_at_the_kerb_facing_the_traffic_they_regulate(street):
+    """A sign on the right kerb of a two-way street faces the camera (the drivers going along
+    the street read it); on the left kerb it faces away (the oncoming drivers read it); on a
+    one-way street both face the camera."""
+    scene, frame = street
+    kind = StreetKind.of(scene.street_kind)
+    rng = np.random.default_rng(8)
+    placed = []
+    for _ in range(2):
+        res = place_object(frame, "traffic sign", SIZES["traffic sign"], rng, RULES, others=placed)
+        if res.placement is None:
+            continue
+        p = res.placement
+        placed.append(p)
+        a, b = (float(v) for v in scene.to_street(*p.position[:2]))
+        from_kerb = abs(b) - scene.road_half_width
+        near = sign_distance(SIZES["traffic sign"])
+        assert near - 0.4 <= from_kerb <= near + SIGN_EDGE + 0.4, from_kerb
+        traffic = 1 if kind.one_way or b < 0 else -1
+        assert _facing_along(scene, p.yaw) == -traffic  # the face looks at the drivers coming
+    assert placed
+
+
+def test_left_hand_traffic_mirrors_the_directions():
+    """The ego vehicle's lane goes with it; the lanes across the centre line (left of it for
+    right-hand traffic, right of it for left-hand) come towards it."""
+    right_hand = Carriageway(-1.6, 4.8, (StreetLine(1.6, "dashed", 5.0, 40.0, 20.0),), 1.6, 0, "marking")
+    left_hand = Carriageway(-4.8, 1.6, (StreetLine(-1.6, "dashed", 5.0, 40.0, 20.0),), -1.6, 0, "marking")
+    assert [lane.direction for lane in _carriageway_lanes(right_hand, 0, 1, {})] == [1, -1]
+    assert [lane.direction for lane in _carriageway_lanes(left_hand, 0, -1, {})] == [-1, 1]
+
+
+def test_the_generated_street_kinds_keep_the_earlier_streets():
+    """Without a street kind the scene is the one earlier versions drew; with one, the ego
+    vehicle keeps right of the centre line, and one-way streets draw none."""
+    plain = random_scene(np.random.default_rng([21, 0]), W, H)
+    again = random_scene(np.random.default_rng([21, 0]), W, H, street=None)
+    assert plain == again and plain.street_kind is None and plain.centre_line
+    two = random_scene(np.random.default_rng([21, 0]), W, H, street="two-way")
+    cam_b = float(two.to_street(two.camera.x, two.camera.y)[1])
+    assert -2.0 < cam_b < -1.2
+    assert not random_scene(np.random.default_rng([21, 0]), W, H, street="one-way").centre_line
+    with pytest.raises(ValueError):
+        random_scene(np.random.default_rng([21, 0]), W, H, street="roundabout")
+
+
+def test_a_person_over_a_side_streets_carriageway_is_rejected():
+    """A side street's far kerb seen at 37 m: its pixels under a person's feet are sidewalk, but
+    the stereo puts them 3 m short, over the side street's carriageway. The person may not stand
+    there (the check and so the placement reject it); the same person on the footway passes."""
+    from synthcompose.placement.boxes import pose_matrix
+    from synthcompose.placement.verdict import on_carriageway
+
+    scene = random_scene(np.random.default_rng([11, 1]), W, H)
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera)
+    over = np.array([36.59, 5.88])
+    assert str(scene.surface_label(*over)) == "road" and scene.in_crossing(*over)
+    up = np.array([0.0, 0.0, 1.0])
+    why = on_carriageway(frame, pose_matrix(np.array([*over, 0.167]), up, -3.1), SIZES["person"])
+    assert why is not None and why.reason == "on the carriageway"
+    on_footway = np.array([20.49, 6.91])
+    assert str(scene.surface_label(*on_footway)) == "sidewalk"
+    assert on_carriageway(frame, pose_matrix(np.array([*on_footway, 0.148]), up, -3.07), SIZES["person"]) is None

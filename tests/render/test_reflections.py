@@ -1,0 +1,75 @@
+"""Reflections of the photo (shaders/lit.glsl, environment()): where a reflected ray leaves the
+frame - behind the camera, above the image, to the sides - paint and glass still reflect a street
+like the one in the photo (the point folded back into the frame's angles), not one flat colour.
+Real cars' panels carry that texture; without it a near car's rear is one plain panel, and a
+stereo matcher cannot find its depth (issue 20)."""
+from __future__ import annotations
+
+import numpy as np
+
+from synthcompose.models import MeshPart, Model
+from synthcompose.render import Lighting, Renderer, RenderObject
+
+from ..helpers import make_camera
+
+LIGHT = Lighting.daylight(elevation_deg=40.0, azimuth_deg=150.0, sun_fraction=0.5)
+
+
+def _mirror_facing_the_camera() -> Model:
+    """A 2 m x 1.2 m mirror (metallic, roughness 0.05) facing the camera (object -x), 0.4 m up."""
+    corners = np.array([[0, 1.0, 0.4], [0, -1.0, 0.4], [0, -1.0, 1.6], [0, 1.0, 1.6]], np.float32)
+    part = MeshPart(positions=corners, normals=np.tile([-1.0, 0.0, 0.0], (4, 1)).astype(np.float32),
+                    uvs=np.zeros((4, 2), np.float32), colors=np.tile([0.9, 0.9, 0.9, 1.0], (4, 1)).astype(np.float32),
+                    material=np.tile([1.0, 0.05], (4, 1)).astype(np.float32),
+                    indices=np.array([[0, 1, 2], [0, 2, 3]], np.uint32), texture=None)
+    return Model("test-mirror", (part,), (0.05, 2.0, 1.6))
+
+
+def _mirror_render(gl, photo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lit colour, coverage) of the mirror 8 m ahead, reflecting ``photo``, full-frame arrays."""
+    cam = make_camera()
+    pose = np.eye(4)
+    pose[:3, 3] = (8.0, 0.0, 0.0)
+    renderer = Renderer(gl)
+    passes = renderer.render(cam, [RenderObject(_mirror_facing_the_camera(), pose, (0.2, 0.2, 0.2))], LIGHT, photo=photo)
+    colour = np.zeros((cam.height, cam.width, 3), np.float32)
+    alpha = np.zeros((cam.height, cam.width), np.float32)
+    colour[passes.roi.slices] = passes.read("objc")[..., :3]
+    alpha[passes.roi.slices] = passes.read("alpha")
+    renderer.release(passes)
+    return colour, alpha
+
+
+def test_a_mirror_facing_the_camera_reflects_a_street_not_a_flat_colour(gl_clean):
+    cam = make_camera()
+    # the photo: vertical stripes 24 px wide, dark and bright
+    cols = np.arange(cam.width)
+    photo = np.where(((cols // 24) % 2 == 0)[None, :, None], 40, 220).astype(np.uint8)
+    photo = np.ascontiguousarray(np.broadcast_to(photo, (cam.height, cam.width, 3)))
+    colour, alpha = _mirror_render(gl_clean, photo)
+    inner = alpha > 0.999
+    rows, cols_ = np.nonzero(inner)
+    assert len(rows) > 2000
+    lum = colour[..., 1]
+    # the rays go back past the camera: the mirror shows the stripes (strong changes along its rows)
+    band = lum[rows.min() + 3:rows.max() - 2, cols_.min() + 3:cols_.max() - 2]
+    profile = band.mean(axis=0)
+    assert profile.max() > 2.0 * profile.min(), profile
+    flips = np.count_nonzero(np.diff(np.sign(profile - np.median(profile))))
+    assert flips >= 4, profile
+
+
+def test_the_street_behind_keeps_its_sides(gl_clean):
+    cam = make_camera()
+    # the photo: its left half dark, its right half bright
+    photo = np.full((cam.height, cam.width, 3), 220, np.uint8)
+    photo[:, : cam.width // 2] = 40
+    colour, alpha = _mirror_render(gl_clean, photo)
+    inner = alpha > 0.999
+    rows, cols = np.nonzero(inner)
+    mid = (cols.min() + cols.max()) // 2
+    lum = colour[..., 1]
+    left = lum[inner & (np.arange(cam.width)[None, :] < mid - 20)].mean()
+    right = lum[inner & (np.arange(cam.width)[None, :] > mid + 20)].mean()
+    # a mirror shows what is behind the camera on the same side: the dark left on its left
+    assert right > 1.5 * left, (left, right)
