@@ -22,8 +22,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces  # noqa: E402
 

@@ -9,8 +9,12 @@ from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
 from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 
-from ..tolerances import (ROAD_BEYOND_SHADOW_MIN, SIDEWALK_FOUND_PRECISION_MIN, SIDEWALK_FOUND_PRECISION_SUNNY_MIN,
-                          SIDEWALK_FOUND_RECALL_MIN)
+from ..tolerances import (
+    ROAD_BEYOND_SHADOW_MIN,
+    SIDEWALK_FOUND_PRECISION_MIN,
+    SIDEWALK_FOUND_PRECISION_SUNNY_MIN,
+    SIDEWALK_FOUND_RECALL_MIN,
+)
 
 #: a low sun ahead-left: the left row's shadow covers the road near the car, the road beyond it
 #: lies in the sun; daylight is a bluish sky and a yellowish sun, 1:3 (sunny Cityscapes frames)
