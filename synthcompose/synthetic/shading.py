@@ -132,28 +132,69 @@ def _sky_rgb(buf: Buffers, idx: np.ndarray, clouds: np.ndarray) -> np.ndarray:
 
 
 def shade(scene: StreetScene, buf: Buffers, ego: np.ndarray, rng: np.random.Generator,
-           sunlit: np.ndarray | None = None) -> np.ndarray:
+          sunlit: np.ndarray | None = None) -> np.ndarray:
     """(H, W, 3) float32 colour 0-255 before noise: albedo x (sky ambient + sun Lambert), haze.
     With a scene light, ``sunlit`` (H * W bool, when given) receives where the sun reaches."""
     cam = scene.camera
     h, w = cam.height, cam.width
-    n_pix = h * w
-    rgb = np.zeros((n_pix, 3), np.float32)
     pid = buf.pid.ravel()
     order = np.argsort(pid, kind="stable")
     n_obj = len(scene.boxes) + len(scene.poles)
     bounds = np.searchsorted(pid[order], np.arange(PID_EGO, PID_FIRST_OBJECT + n_obj + 1))
     groups = {p: order[bounds[i]:bounds[i + 1]] for i, p in enumerate(range(PID_EGO, PID_FIRST_OBJECT + n_obj))}
-    depth = buf.depth.ravel()
-    sun = np.array(scene.sun, np.float64)
-    if not scene.street_is_vehicle_frame:  # shading happens in the street frame
-        sun = scene.vehicle_from_street[:3, :3].T @ sun
-    sun = sun.astype(np.float32)
-    haze = np.array([204, 208, 213], np.float32)
+    sh = _Shader(scene, buf, sunlit, h * w)
+    # sky
+    clouds = cv2.resize(rng.standard_normal((6, 12)).astype(np.float32), (w, h), interpolation=cv2.INTER_CUBIC) * 5
+    idx = groups[PID_SKY]
+    sh.rgb[idx] = _sky_rgb(buf, idx, clouds)
     if scene.light is not None:  # optional light control (SceneLight)
-        haze = light_tint(scene, haze)
+        sh.rgb[idx] = light_tint(scene, sh.rgb[idx])
+    _shade_ground(sh, groups)
+    _shade_objects(sh, groups)
+    return _ego_bonnet(sh.rgb.reshape(h, w, 3), ego, scene)
 
-    # car/person ground footprints darken the ground under and around them (contact shadow)
+
+class _Shader:
+    """The colours being shaded (``rgb``, per pixel) and how a pixel is lit: the sun (in the
+    street frame), the haze, the scene's light."""
+
+    def __init__(self, scene: StreetScene, buf: Buffers, sunlit: np.ndarray | None, n_pix: int) -> None:
+        self.scene, self.buf, self.sunlit = scene, buf, sunlit
+        self.rgb = np.zeros((n_pix, 3), np.float32)
+        self.depth = buf.depth.ravel()
+        sun = np.array(scene.sun, np.float64)
+        if not scene.street_is_vehicle_frame:  # shading happens in the street frame
+            sun = scene.vehicle_from_street[:3, :3].T @ sun
+        self.sun = sun.astype(np.float32)
+        self.haze = np.array([204, 208, 213], np.float32)
+        if scene.light is not None:  # optional light control (SceneLight)
+            self.haze = light_tint(scene, self.haze)
+
+    def lit(self, idx: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> None:
+        scene = self.scene
+        if scene.light is not None:  # optional light control (SceneLight)
+            col = light_shade(scene, albedo, normal, self.points(idx), self.sun,
+                              None if self.sunlit is None else (self.sunlit, idx))
+        else:
+            light = 0.7 + 0.2 * normal[:, 2] + 0.32 * np.maximum(normal @ self.sun, 0)
+            col = albedo * light[:, None]
+        fog = (1 - np.exp(-self.depth[idx] / np.float32(700.0)))[:, None]
+        self.rgb[idx] = col * (1 - fog) + self.haze * fog
+
+    def points(self, idx: np.ndarray) -> np.ndarray:
+        t = self.depth[idx]
+        return np.stack([self.buf.origin[i] + t * self.buf.d[i].ravel()[idx] for i in range(3)], axis=1)
+
+    def face_normals(self, idx: np.ndarray, rotation: np.ndarray | None = None) -> np.ndarray:
+        face = self.buf.face.ravel()[idx].astype(np.int64)
+        n = np.zeros((len(idx), 3), np.float32)
+        n[np.arange(len(idx)), face // 2] = np.where(face % 2 == 1, 1.0, -1.0)
+        return n if rotation is None else n @ rotation.T.astype(np.float32)
+
+
+def _feet(scene: StreetScene) -> dict[int, list[float]]:
+    """The ground footprint (x0, y0, x1, y1) of each car and person standing on the ground: the
+    ground darkens under and around them (contact shadow)."""
     feet: dict[int, list[float]] = {}
     for box in scene.boxes:
         if box.label not in ("car", "person"):
@@ -165,39 +206,18 @@ def shade(scene: StreetScene, buf: Buffers, ego: np.ndarray, rng: np.random.Gene
         if box.lo[2] <= ground + 0.05:
             f = feet.setdefault(box.instance_id, [np.inf, np.inf, -np.inf, -np.inf])
             f[:] = [min(f[0], box.lo[0]), min(f[1], box.lo[1]), max(f[2], box.hi[0]), max(f[3], box.hi[1])]
+    return feet
 
-    def lit(idx: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> None:
-        if scene.light is not None:  # optional light control (SceneLight)
-            col = light_shade(scene, albedo, normal, points(idx), sun,
-                               None if sunlit is None else (sunlit, idx))
-        else:
-            light = 0.7 + 0.2 * normal[:, 2] + 0.32 * np.maximum(normal @ sun, 0)
-            col = albedo * light[:, None]
-        fog = (1 - np.exp(-depth[idx] / np.float32(700.0)))[:, None]
-        rgb[idx] = col * (1 - fog) + haze * fog
 
-    def points(idx: np.ndarray) -> np.ndarray:
-        t = depth[idx]
-        return np.stack([buf.origin[i] + t * buf.d[i].ravel()[idx] for i in range(3)], axis=1)
-
-    def face_normals(idx: np.ndarray, rotation: np.ndarray | None = None) -> np.ndarray:
-        face = buf.face.ravel()[idx].astype(np.int64)
-        n = np.zeros((len(idx), 3), np.float32)
-        n[np.arange(len(idx)), face // 2] = np.where(face % 2 == 1, 1.0, -1.0)
-        return n if rotation is None else n @ rotation.T.astype(np.float32)
-
-    # sky
-    clouds = cv2.resize(rng.standard_normal((6, 12)).astype(np.float32), (w, h), interpolation=cv2.INTER_CUBIC) * 5
-    idx = groups[PID_SKY]
-    rgb[idx] = _sky_rgb(buf, idx, clouds)
-    if scene.light is not None:  # optional light control (SceneLight)
-        rgb[idx] = light_tint(scene, rgb[idx])
-    # ground
+def _shade_ground(sh: _Shader, groups: dict) -> None:
+    """Road, sidewalk and kerb faces, darkened around the feet of what stands on them."""
+    scene, buf, depth = sh.scene, sh.buf, sh.depth
+    feet = _feet(scene)
     for p in (PID_ROAD, PID_SIDEWALK, PID_KERB):
         idx = groups[p]
         if not len(idx):
             continue
-        pt = points(idx)
+        pt = sh.points(idx)
         if p == PID_ROAD:
             albedo = _road_albedo(scene, pt[:, 0], pt[:, 1])
         elif p == PID_SIDEWALK:
@@ -207,7 +227,7 @@ def shade(scene: StreetScene, buf: Buffers, ego: np.ndarray, rng: np.random.Gene
             g = 170 + 6 * _cell_noise(along, pt[:, 2], 1.0, 9)
             albedo = np.stack([g, g, g - 3], axis=1)
         if p == PID_KERB:
-            normal = face_normals(idx)
+            normal = sh.face_normals(idx)
         else:
             normal = scene.street_ground_normal(pt[:, 0].astype(np.float64), pt[:, 1].astype(np.float64))
             normal = normal.astype(np.float32)
@@ -217,28 +237,35 @@ def shade(scene: StreetScene, buf: Buffers, ego: np.ndarray, rng: np.random.Gene
                 ddy = np.maximum(np.maximum(y0 - pt[:, 1], pt[:, 1] - y1), 0)
                 ao *= 1 - 0.55 * np.exp(-(ddx * ddx + ddy * ddy) / np.float32(0.1))
             albedo *= ao[:, None]
-        lit(idx, albedo, normal)
-    # objects
+        sh.lit(idx, albedo, normal)
+
+
+def _shade_objects(sh: _Shader, groups: dict) -> None:
+    """The boxes (buildings, cars, people) and the poles."""
+    scene = sh.scene
     for i, box in enumerate(scene.boxes):
         idx = groups[PID_FIRST_OBJECT + i]
         if len(idx):
-            face = buf.face.ravel()[idx].astype(np.int64)
-            m, pt = box.matrix, points(idx)
+            face = sh.buf.face.ravel()[idx].astype(np.int64)
+            m, pt = box.matrix, sh.points(idx)
             if m is not None:  # street frame -> the box's frame
                 pt = ((pt - m[:3, 3]) @ m[:3, :3]).astype(np.float32)
             albedo = _box_albedo(box, pt, face, float(np.sign(box.lo[1] + box.hi[1])))
-            lit(idx, albedo, face_normals(idx, None if m is None else m[:3, :3]))
+            sh.lit(idx, albedo, sh.face_normals(idx, None if m is None else m[:3, :3]))
     for j, pole in enumerate(scene.poles):
         idx = groups[PID_FIRST_OBJECT + len(scene.boxes) + j]
         if len(idx):
-            pt = points(idx)
+            pt = sh.points(idx)
             n = np.zeros((len(idx), 3), np.float32)
             n[:, 0], n[:, 1] = (pt[:, 0] - pole.x) / pole.radius, (pt[:, 1] - pole.y) / pole.radius
             albedo = np.broadcast_to(np.array(pole.color, np.float32), (len(idx), 3)).copy()
             albedo[pt[:, 2] - pole.base_z < 0.3] *= 0.7
-            lit(idx, albedo, n)
-    # ego bonnet: dark paint with a faint sky reflection towards its top edge
-    rgb = rgb.reshape(h, w, 3)
+            sh.lit(idx, albedo, n)
+
+
+def _ego_bonnet(rgb: np.ndarray, ego: np.ndarray, scene: StreetScene) -> np.ndarray:
+    """The ego bonnet: dark paint with a faint sky reflection towards its top edge."""
+    h = rgb.shape[0]
     rows = np.arange(h, dtype=np.float32)[:, None]
     top = np.argmax(ego, axis=0).astype(np.float32)[None, :]
     refl = np.exp(-np.maximum(rows - top, 0) / max(scene.ego_rows * 0.35, 1.0))

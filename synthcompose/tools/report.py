@@ -78,7 +78,7 @@ def write_report(out_root: Path) -> Path:
     classes: Counter[str] = Counter()
     not_placed: Counter[str] = Counter()
     reasons: Counter[str] = Counter()
-    cards = []
+    cards: list[str] = []
     for record in records:
         for obj in record.objects:
             classes[obj.class_name] += 1
@@ -86,27 +86,40 @@ def write_report(out_root: Path) -> Path:
         for miss in record.not_placed:
             not_placed[miss.get("class", "?")] += 1
             reasons.update(miss.get("rejections", {}))
-        if not record.done or len(cards) >= MAX_THUMBS:
-            continue
-        key = record.image_set
-        split, city, name = key.split("/")
-        try:
-            before = read_png(record.source["rgb"], "rgb8")
-            after = read_png(out_root / "leftImg8bit" / split / city / f"{name}_leftImg8bit.png", "rgb8")
-            labels = read_png(out_root / "gtFine" / split / city / f"{name}_gtFine_labelIds.png", "gray8")
-            src_labels = read_png(record.source["labelIds"], "gray8") if Path(record.source["labelIds"]).is_file() \
-                else np.zeros_like(labels)
-        except InputError:
-            continue
-        stem = key.replace("/", "__")
-        write_bytes_atomic(rep / "thumbs" / f"{stem}_before.jpg", _thumb(before))
-        write_bytes_atomic(rep / "thumbs" / f"{stem}_after.jpg", _thumb(_overlay(after, labels, labels != src_labels)))
-        objs = ", ".join(f"{o.name} {o.distance_m:.0f} m" for o in record.objects)
-        full = f"../leftImg8bit/{split}/{city}/{name}_leftImg8bit.png"
-        cards.append(
-            f'<figure><a href="{html.escape(full)}"><img src="thumbs/{stem}_before.jpg" alt="before {html.escape(key)}">'
-            f'<img src="thumbs/{stem}_after.jpg" alt="after {html.escape(key)}"></a>'
-            f"<figcaption>{html.escape(key)}<br>{html.escape(objs)}</figcaption></figure>")
+        if record.done and len(cards) < MAX_THUMBS and (card := _card(record, out_root, rep)) is not None:
+            cards.append(card)
+    index = rep / "index.html"
+    write_bytes_atomic(index, _page(out_root, summary, classes, not_placed, reasons, cards).encode("utf-8"))
+    return index
+
+
+def _card(record, out_root: Path, rep: Path) -> str | None:
+    """One image set's before/after thumbnails (written under ``rep``) and its figure, or None
+    when its images cannot be read."""
+    key = record.image_set
+    split, city, name = key.split("/")
+    try:
+        before = read_png(record.source["rgb"], "rgb8")
+        after = read_png(out_root / "leftImg8bit" / split / city / f"{name}_leftImg8bit.png", "rgb8")
+        labels = read_png(out_root / "gtFine" / split / city / f"{name}_gtFine_labelIds.png", "gray8")
+        src_labels = read_png(record.source["labelIds"], "gray8") if Path(record.source["labelIds"]).is_file() \
+            else np.zeros_like(labels)
+    except InputError:
+        return None
+    stem = key.replace("/", "__")
+    write_bytes_atomic(rep / "thumbs" / f"{stem}_before.jpg", _thumb(before))
+    write_bytes_atomic(rep / "thumbs" / f"{stem}_after.jpg", _thumb(_overlay(after, labels, labels != src_labels)))
+    objs = ", ".join(f"{o.name} {o.distance_m:.0f} m" for o in record.objects)
+    full = f"../leftImg8bit/{split}/{city}/{name}_leftImg8bit.png"
+    return (
+        f'<figure><a href="{html.escape(full)}"><img src="thumbs/{stem}_before.jpg" alt="before {html.escape(key)}">'
+        f'<img src="thumbs/{stem}_after.jpg" alt="after {html.escape(key)}"></a>'
+        f"<figcaption>{html.escape(key)}<br>{html.escape(objs)}</figcaption></figure>")
+
+
+def _page(out_root: Path, summary: dict, classes: Counter, not_placed: Counter, reasons: Counter,
+          cards: list[str]) -> str:
+    """The report's HTML."""
     stage = [(k, v * 1000) for k, v in summary.get("mean_stage_s", {}).items()]
     per_set = [(s["image_set"].split("/")[-1], sum(s["stage_s"].values()) * 1000)
                for s in summary.get("image_sets", []) if s.get("stage_s")][:60]
@@ -147,6 +160,4 @@ window.addEventListener("load", () => {{
 </script>
 </body></html>
 """
-    index = rep / "index.html"
-    write_bytes_atomic(index, page.encode("utf-8"))
-    return index
+    return page

@@ -3,12 +3,18 @@ cast shadow changes the light on the road, not the road."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
-from synthcompose.synthetic import SceneLight, random_scene, render_scene_sunlit
+from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 
-from ..tolerances import ROAD_BEYOND_SHADOW_MIN, SIDEWALK_FOUND_PRECISION_SUNNY_MIN
+from ..tolerances import (
+    ROAD_BEYOND_SHADOW_MIN,
+    SIDEWALK_FOUND_PRECISION_MIN,
+    SIDEWALK_FOUND_PRECISION_SUNNY_MIN,
+    SIDEWALK_FOUND_RECALL_MIN,
+)
 
 #: a low sun ahead-left: the left row's shadow covers the road near the car, the road beyond it
 #: lies in the sun; daylight is a bluish sky and a yellowish sun, 1:3 (sunny Cityscapes frames)
@@ -30,3 +36,29 @@ def test_found_road_runs_on_into_the_sun_beyond_a_cast_shadow():
     assert (labels[beyond] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
     side = labels == SIDEWALK
     assert side.sum() > 0 and (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_SUNNY_MIN
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "surfaces.py calls green pixels 5 LAB b* units yellower than the road grass whatever their "
+    "saturation: the generated pavements (b* +7, no more saturated than the asphalt) are all taken "
+    "for grass. Requiring grass to be saturated fixes it (recall 0.59-0.76) but on real sunny "
+    "frames the same b* test keeps sunlit asphalt that the ground profile misreads as raised "
+    "off the sidewalk (leverkusen_000039: a person was placed on a cross street's sunlit "
+    "carriageway); a kerb-step test at the border to keep such asphalt off cost the real streets "
+    "frames their footways (people 2/22 placed); fix the far profile first (docs/placement.md)"))
+def test_paving_a_shade_yellower_than_the_asphalt_is_not_grass():
+    """The generated pavements are grey paving a few LAB b* units yellower than the asphalt and
+    no more saturated (real paving: 0-5 b* units yellower, about 10 more saturated; real grass
+    40-50 more saturated). Taken for grass, no pavement is found on generated streets (recall
+    0.00-0.22 within 25 m over six seeds)."""
+    for seed, street in ((0, "two-way"), (3, None)):
+        scene = random_scene(np.random.default_rng([31, seed]), 1024, 512, street=street)
+        arrays = render_scene(scene)
+        labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
+        truth = arrays["label_ids"]
+        z = disparity_to_depth(arrays["disparity"], scene.camera)
+        near = (truth == SIDEWALK) & (z < 25)
+        assert near.sum() > 1000
+        side = labels == SIDEWALK
+        assert (side[near]).mean() > SIDEWALK_FOUND_RECALL_MIN, (seed, street)
+        assert (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_MIN, (seed, street)
