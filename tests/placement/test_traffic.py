@@ -62,6 +62,18 @@ def test_the_street_is_found_centre_line_and_kerbs(street):
         assert any(c.start <= scene.zebra[1] + 1.0 and c.end >= scene.zebra[0] - 1.0 for c in st.crossings)
 
 
+def _placed_in_turn(frame, class_name: str, n: int, seed: int, orientation: str | None = None) -> list:
+    """Up to ``n`` objects of ``class_name`` placed one after the other, each with the ones
+    placed before it standing (as a batch places them)."""
+    rng = np.random.default_rng(seed)
+    placed: list = []
+    for _ in range(n):
+        res = place_object(frame, class_name, SIZES[class_name], rng, RULES, orientation=orientation, others=placed)
+        if res.placement is not None:
+            placed.append(res.placement)
+    return placed
+
+
 @pytest.mark.parametrize("mode", ["along-road", "moving", "parked"])
 def test_vehicles_face_their_lane_centred_never_across_a_marking(street, mode):
     """Right-hand traffic: right of the centre line (street b < 0) a vehicle faces along the
@@ -71,14 +83,9 @@ def test_vehicles_face_their_lane_centred_never_across_a_marking(street, mode):
     scene, frame = street
     kind = StreetKind.of(scene.street_kind)
     w, strip = scene.road_half_width, kind.depth
-    rng = np.random.default_rng(4)
-    placed, asked = [], 4
-    for _ in range(asked):
-        res = place_object(frame, "car", SIZES["car"], rng, RULES, orientation=mode, others=placed)
-        if res.placement is None:
-            continue
-        p = res.placement
-        placed.append(p)
+    asked = 4
+    placed = _placed_in_turn(frame, "car", asked, 4, mode)
+    for p in placed:
         a, b = (float(v) for v in scene.to_street(*p.position[:2]))
         corners = footprint_corners(p.matrix, p.extents)
         cb = np.array([float(scene.to_street(x, y)[1]) for x, y in corners])
@@ -107,14 +114,8 @@ def test_vehicles_face_their_lane_centred_never_across_a_marking(street, mode):
 
 def test_people_stand_on_the_footway_walking_or_waiting(street):
     scene, frame = street
-    rng = np.random.default_rng(6)
-    placed = []
-    for _ in range(3):
-        res = place_object(frame, "person", SIZES["person"], rng, RULES, others=placed)
-        if res.placement is None:
-            continue
-        p = res.placement
-        placed.append(p)
+    placed = _placed_in_turn(frame, "person", 3, 6)
+    for p in placed:
         corners = footprint_corners(p.matrix, p.extents)
         assert all(str(scene.surface_label(x, y)) == "sidewalk" for x, y in corners), "a person off the footway"
         assert p.pose_hint in ("walking", "standing")
@@ -134,14 +135,8 @@ def test_signs_at_the_kerb_facing_the_traffic_they_regulate(street):
     one-way street both face the camera."""
     scene, frame = street
     kind = StreetKind.of(scene.street_kind)
-    rng = np.random.default_rng(8)
-    placed = []
-    for _ in range(2):
-        res = place_object(frame, "traffic sign", SIZES["traffic sign"], rng, RULES, others=placed)
-        if res.placement is None:
-            continue
-        p = res.placement
-        placed.append(p)
+    placed = _placed_in_turn(frame, "traffic sign", 2, 8)
+    for p in placed:
         a, b = (float(v) for v in scene.to_street(*p.position[:2]))
         from_kerb = abs(b) - scene.road_half_width
         near = sign_distance(SIZES["traffic sign"])
