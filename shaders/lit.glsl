@@ -71,9 +71,12 @@ uniform sampler2D u_sky_map;    // depth of the objects seen from straight above
 uniform mat4 u_sky_matrix;      // vehicle -> top-down occlusion map [0,1]^3
 uniform float u_map_metres;     // metres across every light map (their square's side)
 uniform float u_sun_radius;     // tangent of the sun's angular radius
-uniform vec2 u_plane_half;      // this ground plane's half sizes, metres (PLANE)
-uniform float u_plane_fade;     // its darkening fades out over this many metres to its edges
+uniform int u_planes_n;         // the ground planes of this render (PLANE, at most MAX_PLANES)
+uniform mat4 u_plane_inv[15];   // each one's unit square <- vehicle
+uniform vec2 u_plane_halves[15]; // and its half sizes, metres
+uniform float u_plane_fade;     // the darkening fades out over this many metres to the planes' edges
 uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
+uniform float u_ground_sky_scale; // in its lower left square of this share of its side (shadows.ground_sky_texels)
 const float GROUND_SKY_BLUR = 0.25;  // metres
 const float GROUND_SKY_PIXELS = 3.0;  // and at least this many pixels' footprint (ground_sky())
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
@@ -145,10 +148,10 @@ float sun_visibility(vec3 p) {
 // ground along each image axis: a far object's occlusion, a few rows deep, fades over as many
 // pixels as a near one's rather than in one step at its bumper's line.
 float ground_sky(vec3 p) {
-    vec2 g = (u_sky_matrix * vec4(p, 1.0)).xy;
-    vec2 a = GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdx(p)).xy;
-    vec2 b = GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdy(p)).xy;
-    float r = GROUND_SKY_BLUR / u_map_metres;
+    vec2 g = u_ground_sky_scale * (u_sky_matrix * vec4(p, 1.0)).xy;
+    vec2 a = u_ground_sky_scale * GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdx(p)).xy;
+    vec2 b = u_ground_sky_scale * GROUND_SKY_PIXELS * (mat3(u_sky_matrix) * dFdy(p)).xy;
+    float r = u_ground_sky_scale * GROUND_SKY_BLUR / u_map_metres;
     mat2 cov = mat2(r * r) + outerProduct(a, a) + outerProduct(b, b);
     float sq = sqrt(max(determinant(cov), 0.0));
     mat2 m = (cov + mat2(sq)) / sqrt(max(cov[0][0] + cov[1][1] + 2.0 * sq, 1e-20));
@@ -156,6 +159,19 @@ float ground_sky(vec3 p) {
     for (int i = 0; i < 12; ++i)
         open += texture(u_ground_sky, g + m * DISC[i]).r;
     return open / 13.0;
+}
+
+// The objects' darkening fades out before the edges of the ground the planes cover together,
+// no outline of a receiver: at p, the largest of the planes' fades (each one's over u_plane_fade
+// metres to its own edges). Where one plane's edge crosses another's darkening (two cars side by
+// side), the darkening goes on: whichever plane is drawn there shades the ground alike.
+float plane_fade(vec3 p) {
+    float fade = 0.0;
+    for (int k = 0; k < u_planes_n; ++k) {
+        vec2 edge = (1.0 - abs((u_plane_inv[k] * vec4(p, 1.0)).xy)) * u_plane_halves[k];
+        fade = max(fade, smoothstep(0.0, u_plane_fade, min(edge.x, edge.y)));
+    }
+    return fade;
 }
 
 float contact_occlusion(vec3 p) {
@@ -246,9 +262,7 @@ void main() {
     float sun_vis = 1.0;
     float sky_vis = 1.0;
 #else
-    // the objects' darkening fades out before the plane's edges: no outline of the receiver
-    vec2 edge = (1.0 - abs(v_local)) * u_plane_half;
-    float fade = smoothstep(0.0, u_plane_fade, min(edge.x, edge.y));
+    float fade = plane_fade(v_world);
     float sun_vis = mix(1.0, sun_visibility(v_world), fade);
     float open = ground_sky(v_world);
     float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);

@@ -21,7 +21,7 @@ from synthcompose.models import Model
 
 from .gl import GLContext
 from .gpu_model import GpuMaps, GpuModel, GroundPlane, mipmapped
-from .shadows import light_range
+from .shadows import GROUND_SKY_SIZE, ground_sky_texels, light_range
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4
 from .values import Lighting, RenderObject
 
@@ -34,6 +34,8 @@ SUN_RADIUS = math.tan(math.radians(0.267))
 #: a ground plane's darkening (the objects' shadows and occlusion) fades out over this many
 #: metres to its edges, so that no outline of the plane shows (values.PLANE_MARGIN is wider)
 PLANE_FADE = 0.3
+#: ground planes one lit pass fades over together (lit.glsl's u_plane_inv; objects per render)
+MAX_PLANES = 15
 #: contact shadow: ground under a part of an object lower than about this (metres) loses most
 #: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
 CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
@@ -68,6 +70,7 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
         "u_sun_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sun_mat), "u_sky_matrix": gl_mat4(TEXTURE_FROM_CLIP @ sky_mat),
         "u_map_metres": 2 * half, "u_sun_radius": SUN_RADIUS,
         "u_under_map": _UNDER_UNIT, "u_ground_sky": _GROUND_SKY_UNIT,
+        "u_ground_sky_scale": ground_sky_texels(half) / GROUND_SKY_SIZE,  # the map's share used
         "u_under_matrix": gl_mat4(TEXTURE_FROM_CLIP @ under_mat),
         "u_under_range": light_range(half),  # metres the light maps' depth 0..1 spans
         "u_self_bias": 0.05 / light_range(half),
@@ -188,11 +191,20 @@ class LitDraw:
     def _draw_planes(self, objects: Sequence[RenderObject], lighting: Lighting, shadows: bool, reverse: bool) -> None:
         prog = self.program(plane=True, shadows=shadows)
         vao = self.plane.vao(prog, reverse)
+        if shadows:  # every plane's square: the darkening fades out at the edges of their union
+            if len(objects) > MAX_PLANES:
+                raise ValueError(f"lit.glsl: {len(objects)} ground planes, at most {MAX_PLANES}")
+            prog["u_planes_n"].value = len(objects)
+            inv = np.zeros((MAX_PLANES, 4, 4))
+            halves = np.zeros((MAX_PLANES, 2), "f4")
+            for k, obj in enumerate(objects):
+                inv[k] = np.linalg.inv(obj.plane_matrix(lighting))
+                halves[k] = obj.plane_half(lighting)
+            prog["u_plane_inv"].write(b"".join(gl_mat4(m) for m in inv))
+            prog["u_plane_halves"].write(halves.tobytes())
+            prog["u_plane_fade"].value = PLANE_FADE
         for obj in (reversed(objects) if reverse else objects):
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
-            if shadows:
-                prog["u_plane_half"].value = obj.plane_half(lighting)
-                prog["u_plane_fade"].value = PLANE_FADE
             prog["u_plane_albedo"].value = tuple(obj.plane_albedo)
             prog["u_sun_scale"].value = float(obj.sun_visibility)
             vao.render(moderngl.TRIANGLES)

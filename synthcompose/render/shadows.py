@@ -6,6 +6,7 @@ matrices that make them (vehicle frame -> light clip space, orthographic, around
 their planes)."""
 from __future__ import annotations
 
+import math
 from typing import Callable, Sequence
 
 import moderngl
@@ -18,9 +19,18 @@ from .gpu_model import GpuModel, GroundPlane
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4, look_at, ortho
 from .values import Lighting, RenderObject
 
-#: texels across the square of the ground planes' sky map (over the light views' 2 * half metres:
-#: 4 cm a texel for a car alone, 16 cm for objects 20 m apart; read through a 25 cm disc)
-GROUND_SKY_SIZE = 256
+#: the ground planes' sky map: about this many metres a texel, whatever the light views' square
+#: (2 * half metres: a car alone, or objects 20 m apart), so that a far car's occlusion is worked
+#: out as finely as a near one's (read through a 25 cm disc: lit.glsl); the texture's side, of
+#: which a square of :func:`ground_sky_texels` is used; beyond 41 m across the texels grow
+GROUND_SKY_TEXEL, GROUND_SKY_SIZE = 0.04, 1024
+
+
+def ground_sky_texels(half: float) -> int:
+    """Texels across the part of the ground's sky map used for light views ``half`` metres
+    either side of their centre (:func:`light_matrices`): :data:`GROUND_SKY_TEXEL` metres each,
+    at least 256, at most :data:`GROUND_SKY_SIZE`."""
+    return int(min(max(math.ceil(2 * half / GROUND_SKY_TEXEL), 256), GROUND_SKY_SIZE))
 
 
 def light_matrices(objects: Sequence[RenderObject], lighting: Lighting) -> list:
@@ -48,7 +58,7 @@ def light_range(half: float) -> float:
 class ShadowMaps:
     """The three depth maps (``shadow_size`` square) and their framebuffers: :attr:`maps`,
     (texture, framebuffer) of the sun, the sky and the undersides; and the ground planes' sky
-    (:data:`GROUND_SKY_SIZE` square, one float a texel: the share of the sky the ground there
+    (:data:`GROUND_SKY_SIZE` square, one float a texel, of which :func:`ground_sky_texels` are used: the share of the sky the ground there
     sees past the objects)."""
 
     def __init__(self, gl: GLContext, shadow_size: int) -> None:
@@ -108,8 +118,10 @@ class ShadowMaps:
         planes over earlier ones where they overlap: the same objects darken them alike)."""
         ctx = self.gl.ctx
         prog = self.gl.program("ground_sky")
+        n = ground_sky_texels(half)
         self._ground_fbo.use()
-        self._ground_fbo.clear(1.0, 1.0, 1.0, 1.0)
+        self._ground_fbo.clear(1.0, 1.0, 1.0, 1.0, viewport=(0, 0, GROUND_SKY_SIZE, GROUND_SKY_SIZE))
+        self._ground_fbo.viewport = (0, 0, n, n)  # the square's texels (lit.glsl: u_ground_sky_scale)
         ctx.disable(moderngl.DEPTH_TEST)
         self.maps[1][0].use(2)
         prog["u_sky_map"].value = 2
