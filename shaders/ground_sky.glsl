@@ -1,5 +1,5 @@
 #version 330 core
-// The sky light each ground plane receives past the objects, once per texel of the top-down (sky) map's
+// The sky each ground plane sees past the objects, once per texel of the top-down (sky) map's
 // square rather than once per pixel: the planes are drawn into that square seen from straight
 // above, each fragment at its own plane's height. lit.glsl (PLANE) reads it back, bilinearly.
 #if defined VERTEX_SHADER
@@ -19,8 +19,6 @@ uniform mat4 u_sky_matrix;      // vehicle -> that map [0,1]^3
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres the maps' depth 0..1 spans
-uniform float u_contact_height; // a part this low over the ground darkens it (metres)
-uniform float u_contact_radius; // contact search radius in the under map's units
 out float out_open;
 
 // The sky a ground point at p sees past the objects: over 12 directions, the band of elevations
@@ -61,29 +59,7 @@ float sky_visibility(vec3 p) {
     return open / 12.0;
 }
 
-// 1 where a part of an object stands on p (its underside at the ground: a tyre, a foot),
-// falling off with that part's height over p (u_contact_height), averaged over a disc of
-// u_contact_radius: CONTACT_SAMPLES points spread evenly over it (a sunflower), turned by a
-// different angle in each texel, so that no pattern of fixed sample points shows as streaks
-// where a tyre's edge crosses them (lit.glsl reads the map through a disc).
-const int CONTACT_SAMPLES = 24;
-float contact_occlusion(vec3 p, float turn) {
-    vec4 s = u_under_matrix * vec4(p, 1.0);
-    float occ = 0.0;
-    for (int i = 0; i < CONTACT_SAMPLES; ++i) {
-        float r = sqrt((float(i) + 0.5) / float(CONTACT_SAMPLES)) * u_contact_radius;
-        float a = 2.3999632 * float(i) + 6.2831853 * turn;
-        float h = (texture(u_under_map, s.xy + r * vec2(cos(a), sin(a))).r - s.z) * u_under_range;  // 1.0: nothing drawn
-        occ += exp(-max(h, 0.0) / u_contact_height);
-    }
-    return occ / float(CONTACT_SAMPLES);
-}
-
-// The share of the sky's light the ground at p receives: the sky it sees past the objects (at
-// least 12 %: the light the objects' sides and the ground around throw back), less most of it
-// where a part stands on it.
 void main() {
-    float turn = fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.00583715, 0.06711056))));
-    out_open = mix(0.12, 1.0, sky_visibility(v_world)) * (1.0 - 0.85 * contact_occlusion(v_world, turn));
+    out_open = sky_visibility(v_world);
 }
 #endif

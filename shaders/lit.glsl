@@ -143,8 +143,7 @@ float sun_visibility(vec3 p) {
     return vis / 13.0;
 }
 
-// The sky light the ground at p receives past the objects (ground_sky.glsl: their occlusion of
-// the sky and their contact), read over a disc of
+// The sky the ground at p sees past the objects (ground_sky.glsl), read over a disc of
 // GROUND_SKY_BLUR metres, widened to GROUND_SKY_PIXELS of the pixel's own footprint on the
 // ground along each image axis: a far object's occlusion, a few rows deep, fades over as many
 // pixels as a near one's rather than in one step at its bumper's line.
@@ -173,6 +172,19 @@ float plane_fade(vec3 p) {
         fade = max(fade, smoothstep(0.0, u_plane_fade, min(edge.x, edge.y)));
     }
     return fade;
+}
+
+float contact_occlusion(vec3 p) {
+    // 1 where a part of an object stands on p (its underside at the ground: a tyre, a foot),
+    // falling off with that part's height over p (u_contact_height), averaged over a small disc
+    vec4 s = u_under_matrix * vec4(p, 1.0);
+    float occ = 0.0;
+    for (int i = 0; i < 13; ++i) {
+        vec2 q = s.xy + (i == 12 ? vec2(0.0) : DISC[i] * u_contact_radius);
+        float h = (texture(u_under_map, q).r - s.z) * u_under_range;  // 1.0: nothing drawn
+        occ += exp(-max(h, 0.0) / u_contact_height);
+    }
+    return occ / 13.0;
 }
 
 // The sky a point of an object sees: less near the ground (the ground and the object itself
@@ -252,7 +264,8 @@ void main() {
 #else
     float fade = plane_fade(v_world);
     float sun_vis = mix(1.0, sun_visibility(v_world), fade);
-    float sky_vis = mix(1.0, ground_sky(v_world), fade);
+    float open = ground_sky(v_world);
+    float sky_vis = mix(1.0, mix(0.12, 1.0, open) * (1.0 - 0.85 * contact_occlusion(v_world)), fade);
 #endif
     vec3 ambient = mix(u_ground_rgb, u_sky_rgb, 0.5 + 0.5 * n.z) * sky_vis;
     vec3 sun_rgb = u_sun_rgb * sun_scale;

@@ -21,7 +21,7 @@ from synthcompose.models import Model
 
 from .gl import GLContext
 from .gpu_model import GpuMaps, GpuModel, GroundPlane, mipmapped
-from .shadows import CONTACT_HEIGHT, CONTACT_RADIUS, GROUND_SKY_SIZE, ground_sky_texels, light_range
+from .shadows import GROUND_SKY_SIZE, ground_sky_texels, light_range
 from .transforms import TEXTURE_FROM_CLIP, gl_mat4
 from .values import Lighting, RenderObject
 
@@ -36,6 +36,9 @@ SUN_RADIUS = math.tan(math.radians(0.267))
 PLANE_FADE = 0.3
 #: ground planes one lit pass fades over together (lit.glsl's u_plane_inv; objects per render)
 MAX_PLANES = 15
+#: contact shadow: ground under a part of an object lower than about this (metres) loses most
+#: of its ambient light (the tyre's or the foot's contact patch), averaged over this radius
+CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
 #: number plates kept on the GPU (a batch meets new ones with every image set)
 PLATES_KEPT = 16
 

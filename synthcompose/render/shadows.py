@@ -24,9 +24,6 @@ from .values import Lighting, RenderObject
 #: out as finely as a near one's (read through a 25 cm disc: lit.glsl); the texture's side, of
 #: which a square of :func:`ground_sky_texels` is used; beyond 41 m across the texels grow
 GROUND_SKY_TEXEL, GROUND_SKY_SIZE = 0.04, 1024
-#: contact shadow: ground under a part of an object lower than about this (metres) loses most
-#: of its sky light (the tyre's or the foot's contact patch), averaged over this radius
-CONTACT_HEIGHT, CONTACT_RADIUS = 0.15, 0.3
 
 
 def ground_sky_texels(half: float) -> int:
@@ -134,8 +131,6 @@ class ShadowMaps:
         prog["u_sky_clip"].write(gl_mat4(sky_mat))
         prog["u_sky_matrix"].write(gl_mat4(TEXTURE_FROM_CLIP @ sky_mat))
         prog["u_under_range"].value = light_range(half)
-        prog["u_contact_height"].value = CONTACT_HEIGHT
-        prog["u_contact_radius"].value = CONTACT_RADIUS / (2 * half)
         vao = plane.vao(prog)
         for obj in objects:
             prog["u_model"].write(gl_mat4(obj.plane_matrix(lighting)))
