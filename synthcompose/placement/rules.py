@@ -37,6 +37,8 @@ def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:
 #: classes that stand on a pole: only the pole's foot needs ground under it (its plate may
 #: reach over a verge's edge, a wall's foot or a hedge), a square this wide, metres
 POLE_MOUNTED, POLE_FOOT = ("traffic sign", "traffic light", "pole"), 0.3
+#: classes that stand plumb whatever the ground's slope (a vehicle lies on the ground's plane)
+UPRIGHT = POLE_MOUNTED + ("person",)
 
 
 def standing_footprint(class_name: str, extents) -> tuple[float, float]:

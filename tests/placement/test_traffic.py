@@ -181,6 +181,20 @@ def test_a_sign_needs_ground_under_its_pole_not_under_its_plate(street):
     assert placed and all(check_pose(frame, "traffic sign", sign, p.matrix, RULES) is None for p in placed)
 
 
+def test_signs_and_people_stand_plumb_vehicles_lie_on_the_ground():
+    """On a street climbing 6 % and cambered, a sign's pole and a person stand plumb (gravity);
+    a car's axes follow the road's plane."""
+    scene = random_scene(np.random.default_rng([21, 0]), W, H, street="two-way", slope=0.06)
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera,
+                       photo=arrays["rgb"])
+    for cls in ("traffic sign", "person"):
+        placed = _placed_in_turn(frame, cls, 2, 8)
+        assert placed and all(np.allclose(p.matrix[:3, 2], (0.0, 0.0, 1.0)) for p in placed), cls
+    cars = _placed_in_turn(frame, "car", 2, 8)
+    assert cars and all(math.degrees(math.acos(p.matrix[2, 2])) > 1.5 for p in cars)
+
+
 def test_left_hand_traffic_mirrors_the_directions():
     """The ego vehicle's lane goes with it; the lanes across the centre line (left of it for
     right-hand traffic, right of it for left-hand) come towards it."""
