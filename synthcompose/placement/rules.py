@@ -13,8 +13,8 @@ if TYPE_CHECKING:
 ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {
     "car": ("road",), "truck": ("road",), "bus": ("road",), "motorcycle": ("road",),
     "bicycle": ("road",), "rider": ("road",), "caravan": ("road",), "trailer": ("road",),
-    "person": ("sidewalk",), "traffic sign": ("sidewalk",), "traffic light": ("sidewalk",),
-    "pole": ("sidewalk",),
+    "person": ("sidewalk",), "traffic sign": ("sidewalk", "terrain"), "traffic light": ("sidewalk", "terrain"),
+    "pole": ("sidewalk", "terrain"),
 }
 #: default orientation rule per class (others: along-road): vehicles in traffic (moving in a
 #: lane or parked at the kerb, facing their lane's direction), people walking or standing on

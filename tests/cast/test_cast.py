@@ -87,7 +87,7 @@ def test_the_street_cast_stands_for_its_pools_and_objects_add_to_it(tmp_path):
         assert o.model.startswith(CAST_PREFIX) and o.cast and o.size == ()
         assert {e.class_name for e in o.cast} == {o.class_name}
     sign = next(o for o in m.objects if o.class_name == "traffic sign")
-    assert sign.allowed_surfaces == ("sidewalk",) and sign.orientation == "facing-traffic"  # traffic sense
+    assert sign.allowed_surfaces == ("sidewalk", "terrain") and sign.orientation == "facing-traffic"  # traffic sense
     more = parse_manifest(manifest_data(tmp_path, cast="street", objects=[
         {"model": "cast:de-206", "weight": 5, "size": {"height": 3.0}},
         {"model": "builtin:box", "class": "car", "size": {"length": 4.0}}]), tmp_path / "m.json")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry.depth import disparity_to_depth, make_frame
+from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, footprint_corners, footprints_overlap, place_object
 from synthcompose.placement.lanes import _carriageway_lanes
 from synthcompose.placement.street import Carriageway, StreetLine, find_street
@@ -144,6 +145,23 @@ def test_signs_at_the_kerb_facing_the_traffic_they_regulate(street):
         traffic = 1 if kind.one_way or b < 0 else -1
         assert _facing_along(scene, p.yaw) == -traffic  # the face looks at the drivers coming
     assert placed
+
+
+def test_signs_stand_on_grass_verges_and_islands_people_do_not(street):
+    """Where the strip beside the kerb is grass (Cityscapes ``terrain``: a verge, a median
+    island) instead of a footway, signs still stand at its kerb's edge facing the traffic they
+    regulate; people, who walk on footways, are not put on it."""
+    scene, frame = street
+    grass = frame.label_ids.copy()
+    grass[grass == label_id("sidewalk")] = label_id("terrain")
+    verge = make_frame(frame.depth, grass, frame.camera, photo=frame.photo)
+    placed = _placed_in_turn(verge, "traffic sign", 2, 8)
+    assert placed
+    for p in placed:
+        b = float(scene.to_street(*p.position[:2])[1])
+        near = sign_distance(SIZES["traffic sign"])
+        assert near - 0.4 <= abs(b) - scene.road_half_width <= near + SIGN_EDGE + 0.4
+    assert not _placed_in_turn(verge, "person", 1, 6)
 
 
 def test_left_hand_traffic_mirrors_the_directions():
