@@ -6,7 +6,9 @@ Each labelled image set is read as a frame without labels would be (its disparit
 only; gtFine is the truth): road and sidewalk precision and recall per frame, the share of the
 found sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain), the found
 sidewalk's share of the frame, the true sidewalk's recall per distance band (where the finder
-loses it), and the finder's CPU seconds. ``--generated N``: the same on N generated scenes
+loses it), the found grass verges (terrain: where a sign may stand) and the share of them on
+ground beside the carriageway (sidewalk, parking, ground, terrain, vegetation), and the
+finder's CPU seconds. ``--generated N``: the same on N generated scenes
 (2048x1024, ``make-sample``), in the same run. Nothing is written; never commit real pixels.
 """
 from __future__ import annotations
@@ -25,9 +27,11 @@ sys.path.insert(0, str(REPO))
 from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
 from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
-from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces  # noqa: E402
+from synthcompose.placement.surfaces import ROAD, SIDEWALK, TERRAIN, find_surfaces  # noqa: E402
 
 WALKABLE = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
+#: where a sign may stand: off the carriageway, on ground beside it (a verge holds vegetation too)
+SIGN_GROUND = WALKABLE + [label_id("vegetation")]
 #: distance bands of the sidewalk's recall, metres
 BANDS = ((0, 10), (10, 20), (20, 40), (40, 80))
 
@@ -51,6 +55,9 @@ def measure(ident, root: Path) -> dict:
     side = found == SIDEWALK
     fig["walkable"] = float(np.isin(truth[side], WALKABLE).mean()) if side.any() else None
     fig["share"] = float(side.mean())
+    verge = found == TERRAIN  # a sign's place: off the carriageway, on ground beside it
+    fig["verge_n"] = int(verge.sum())
+    fig["verge_ok"] = float(np.isin(truth[verge], SIGN_GROUND).mean()) if verge.any() else None
     z = disparity_to_depth(s.disparity, s.camera)
     gs = truth == SIDEWALK
     for lo, hi in BANDS:
@@ -63,14 +70,16 @@ def report(root: Path, label: str) -> list[dict]:
     idents = [i for i in find_image_sets(root) if i.path(root, "labelIds").exists()]
     if not idents:
         raise SystemExit(f"{root}: no labelled image set (gtFine) to measure against")
-    cols = ["road_P", "road_R", "sidewalk_P", "sidewalk_R", "walkable", "share"] + [f"R{lo}-{hi}" for lo, hi in BANDS]
+    cols = ["road_P", "road_R", "sidewalk_P", "sidewalk_R", "walkable", "share"] + [f"R{lo}-{hi}" for lo, hi in BANDS] \
+        + ["verge_n", "verge_ok"]
     print(f"\n== {label}: {root}")
     print(f"{'image set':<34}" + "".join(f"{c:>11}" for c in cols) + f"{'cpu s':>7}")
     rows = []
     for ident in idents:
         fig = measure(ident, root)
         rows.append(fig)
-        cells = "".join(f"{'-' if fig[c] is None else format(fig[c], '.4f' if c == 'share' else '.3f'):>11}" for c in cols)
+        spec = {"share": ".4f", "verge_n": "d"}
+        cells = "".join(f"{'-' if fig[c] is None else format(fig[c], spec.get(c, '.3f')):>11}" for c in cols)
         print(f"{ident.key.split('/')[-1][:33]:<34}{cells}{fig['cpu_s']:>7.2f}")
     return rows
 

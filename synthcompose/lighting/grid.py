@@ -44,12 +44,24 @@ def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:
     return cv2.resize(a, (w, h), interpolation=cv2.INTER_AREA) if f > 1 else a.copy()
 
 
+def _linear_cell_mean(rgb: np.ndarray, f: int, band_cells: int = 64) -> np.ndarray:
+    """``_cell_mean(cv2.LUT(rgb, LEVEL_LUT), f)``, ``band_cells`` rows of cells at a time: the
+    same values (each cell's mean is its own f x f pixels') without the whole linear photo in
+    memory at once ((H, W, 3) float32: 24 MB at 2048x1024)."""
+    h = rgb.shape[0] // f
+    step = f * band_cells
+    if f == 1 or h * f <= step:
+        return _cell_mean(cv2.LUT(rgb, LEVEL_LUT), f)
+    return np.concatenate([_cell_mean(cv2.LUT(rgb[r0:min(r0 + step, h * f)], LEVEL_LUT), f)
+                           for r0 in range(0, h * f, step)])
+
+
 def make_grid(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera, work_width: int,
           smooth: int = 1) -> Grid:
     H, W = label_ids.shape
     f = max(1, int(round(W / work_width)))
     h, w = H // f, W // f
-    lin = _cell_mean(cv2.LUT(rgb, LEVEL_LUT), f)
+    lin = _linear_cell_mean(rgb, f)
     lab_min, lab_max = _cell_reduce(label_ids, f, cv2.erode), _cell_reduce(label_ids, f, cv2.dilate)
     # depth of a cell: the mean of its known depths (stereo leaves holes), if half are known
     d = depth.astype(np.float32, copy=False)

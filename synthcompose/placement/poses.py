@@ -44,6 +44,7 @@ from .rules import (
     PlacementRules,
     Rejection,
     label_mask,
+    standing_footprint,
     surfaces_for,
 )
 
@@ -124,7 +125,8 @@ class PoseTests:
            class_name: str = "") -> "PoseTests":
         allowed_ids = np.array([label_id(n) for n in allowed])
         l, w, _ = extents
-        grid = np.concatenate([footprint_grid(l, w), footprint_grid(l, w, rules.footprint_margin)])
+        fl, fw = standing_footprint(class_name, extents)
+        grid = np.concatenate([footprint_grid(fl, fw), footprint_grid(fl, fw, rules.footprint_margin)])
         return cls(frame, extents, rules, tuple(allowed), allowed_ids, surface_edges(frame, allowed_ids), grid,
                    math.hypot(l, w) / 2 + 0.5, frame_noise(frame), class_name)
 

@@ -34,6 +34,23 @@ def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:
     return tuple(given) if given else ALLOWED_SURFACES.get(class_name, ("road",))
 
 
+#: classes that stand on a pole: only the pole's foot needs ground under it (its plate may
+#: reach over a verge's edge, a wall's foot or a hedge), a square this wide, metres
+POLE_MOUNTED, POLE_FOOT = ("traffic sign", "traffic light", "pole"), 0.3
+#: classes that stand plumb whatever the ground's slope (a vehicle lies on the ground's plane)
+UPRIGHT = POLE_MOUNTED + ("person",)
+
+
+def standing_footprint(class_name: str, extents) -> tuple[float, float]:
+    """(length, width) of the part of an object of ``extents`` that stands on the ground,
+    centred like its box: the whole footprint, or a pole-mounted object's pole foot (the
+    cast's and the built-in signs stand their pole under the plate's middle)."""
+    l, w = float(extents[0]), float(extents[1])
+    if class_name in POLE_MOUNTED:
+        return min(l, POLE_FOOT), min(w, POLE_FOOT)
+    return l, w
+
+
 def orientation_for(class_name: str, given: str | None = None) -> str:
     """An object's orientation rule: ``given``, else the class's default."""
     return given or ORIENTATION.get(class_name, "along-road")

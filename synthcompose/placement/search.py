@@ -38,6 +38,7 @@ from .poses import PoseTests, check_pose
 from .rules import (
     GROUND_LEVEL,
     ORIENTATIONS,
+    UPRIGHT,
     Placement,
     PlacementResult,
     PlacementRules,
@@ -217,7 +218,8 @@ def _posed(frame: Frame, tests: PoseTests, point: np.ndarray, yaw: float, rules:
     if why:
         return why
     position = np.array([point[0], point[1], ground.height(point[0], point[1])])
-    m = pose_matrix(position, ground.normal, yaw)
+    # vehicles lie on the ground's plane; a pole and a person stand plumb (gravity), on a slope too
+    m = pose_matrix(position, UP if class_name in UPRIGHT else ground.normal, yaw)
     # 3. the image tests on the final pose (with heights), then the visibility rules
     why = tests.image(m)
     if why:

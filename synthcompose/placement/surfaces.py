@@ -17,7 +17,9 @@ disparity and the photo.
    where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
    light's road colour is modelled from it too.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
-   road. Everything else is 0 (unlabelled).
+   road. **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
+   and more saturated than it, beside the road (a sign may stand there, a person does not walk there).
+   Everything else is 0 (unlabelled).
 
 Deterministic: the same disparity and photo give the same labels (the checker recomputes them).
 """
@@ -35,7 +37,7 @@ from synthcompose.labels import label_id
 
 from .noise import measure_sigma
 
-ROAD, SIDEWALK = label_id("road"), label_id("sidewalk")
+ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
 #: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
 SCALE = 0.5
 #: sidewalk: raised this much above the road, metres
@@ -50,6 +52,9 @@ LEVEL_BAND = 0.05
 CROWN_REACH = 3.5
 #: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
 GRASS_SATURATION, GRASS_YELLOW = 18, 5
+#: a grass verge: at most this OpenCV hue (yellow-green, not the cyan cast of dark asphalt)
+#: and at least this much more saturated than the road
+VERGE_HUE_MAX, VERGE_SATURATION = 65, 5
 #: a sidewalk touches the road within this many working pixels
 TOUCH_PX = 4
 #: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
@@ -73,7 +78,7 @@ SPREAD_FLOOR = (10.0, 4.0, 4.0)
 class Surfaces:
     """Labels found for a frame without labels, and how."""
 
-    labels: np.ndarray  # (H, W) uint8: ROAD, SIDEWALK or 0
+    labels: np.ndarray  # (H, W) uint8: ROAD, SIDEWALK, TERRAIN or 0
     profile: np.ndarray  # (H,) ground disparity per row (NaN above the horizon)
     sigma_d: float  # the matcher's noise measured on the level ground, pixels
 
@@ -81,6 +86,7 @@ class Surfaces:
         return {"source": "none: road and sidewalk found from the disparity and the photo",
                 "road_share": round(float((self.labels == ROAD).mean()), 4),
                 "sidewalk_share": round(float((self.labels == SIDEWALK).mean()), 4),
+                "terrain_share": round(float((self.labels == TERRAIN).mean()), 4),
                 "sigma_disparity_px": round(self.sigma_d, 4)}
 
 
@@ -212,9 +218,12 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
     green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
                                                           | (lab[..., 2] >= b_road + GRASS_YELLOW))
-    lane = _lane(level & ~green, seed & ~green, z, sub)
-    models = _road_models(lab, seed & ~green, lane)
-    road = _road(level & ~green, (seed | lane) & ~green, lab, models)
+    # the road is kept off grass by saturation alone: sunlight is yellower than the skylight
+    # of a shadow, so sunlit asphalt beside a shaded seed is b* units yellower, never greener
+    grass = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & (hsv[..., 1] >= s_road + GRASS_SATURATION)
+    lane = _lane(level & ~grass, seed & ~grass, z, sub)
+    models = _road_models(lab, seed & ~grass, lane)
+    road = _road(level & ~grass, (seed | lane) & ~grass, lab, models)
     # level ground with road on both sides along its row is the road's (lane markings, patches)
     road |= level & ~road & _between(road, ENCLOSED_PX)
     # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
@@ -229,20 +238,34 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     side &= ~_between(road, ENCLOSED_PX)
     # beside the road: touching it (a kerb between them), not across grass or a wall
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
-    n, comp = cv2.connectedComponents(side.astype(np.uint8), connectivity=4)
-    if n > 1:
-        touches = np.zeros(n, bool)
-        touches[np.unique(comp[near_road & side])] = True
-        sizes = np.bincount(comp.ravel(), minlength=n)
-        touches &= sizes >= 200
-        touches[0] = False
-        side = touches[comp]
+    side = _beside(side, near_road)
+    # a grass verge or island: flat ground up a kerb beside the road, yellow-green and more
+    # saturated than the road (level green is left out: sunlit asphalt and a crossing's
+    # paving read as yellower too, and a sign must not stand on the carriageway)
+    verdant = (hsv[..., 0] >= 25) & (hsv[..., 0] <= VERGE_HUE_MAX) & (lab[..., 2] >= b_road + GRASS_YELLOW) \
+        & (hsv[..., 1] >= s_road + VERGE_SATURATION)
+    verge = raised & verdant & ~road & ~side & ~foot & ~_between(road, ENCLOSED_PX)
+    verge = cv2.morphologyEx(verge.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    verge = _beside(verge, near_road)
     small_labels = np.zeros((h, w), np.uint8)
     small_labels[road] = ROAD
     small_labels[side] = SIDEWALK
+    small_labels[verge] = TERRAIN
     labels = cv2.resize(small_labels, (W, H), interpolation=cv2.INTER_NEAREST)
     labels[disparity_png <= 1] = 0
     return Surfaces(labels, ratio, float(sigma))
+
+
+def _beside(mask: np.ndarray, near_road: np.ndarray, least: int = 200) -> np.ndarray:
+    """The connected regions of ``mask`` (at least ``least`` pixels) that touch ``near_road``."""
+    n, comp = cv2.connectedComponents(mask.astype(np.uint8), connectivity=4)
+    if n <= 1:
+        return mask.astype(bool)
+    touches = np.zeros(n, bool)
+    touches[np.unique(comp[near_road & mask])] = True
+    touches &= np.bincount(comp.ravel(), minlength=n) >= least
+    touches[0] = False
+    return touches[comp]
 
 
 def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarray:

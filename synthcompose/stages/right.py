@@ -55,7 +55,8 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_sha
     if roi is None:
         return photo
     rows, cols = roi.slices
-    layers = {"label_ids": scene.label_ids, "instance_ids": scene.instance_ids}
+    # the colour-only compose reads the labels (what is in front), not the instance ids or disparity
+    layers = {"label_ids": scene.label_ids}
     if scene.ground is not None:
         layers["ground"] = scene.ground
     if sun_mask is not None:
@@ -66,8 +67,8 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_sha
     if passes is None:
         return photo
     try:
-        right = SceneLayers(photo, carried["label_ids"], carried["instance_ids"],
-                            np.zeros(carried["label_ids"].shape, np.uint16), carried["depth"], scene.disparity_scale,
+        unread = np.broadcast_to(np.uint16(0), carried["label_ids"].shape)  # (no memory)
+        right = SceneLayers(photo, carried["label_ids"], unread, unread, carried["depth"], scene.disparity_scale,
                             ground=carried.get("ground"), ground_band=scene.ground_band)
         match = None if match is None else replace(match, seed=right_noise_seed(match.seed))
         out = composer.compose_roi(passes, right, classes, instances, match, tones, rgb_only=True)

@@ -45,7 +45,7 @@ from synthcompose.placement import (
     road_line,
     scene_clearance,
 )
-from synthcompose.placement.rules import rules_from
+from synthcompose.placement.rules import rules_from, standing_footprint
 from synthcompose.placement.saved_poses import placement_from_pose
 from synthcompose.placement.surfaces import frame_for
 from synthcompose.placement.traffic import Traffic
@@ -121,7 +121,7 @@ def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(
         m = np.array(obj.pose.vehicle, float)
         l, w, h = obj.extents_m
         allowed = np.array([label_id(s) for s in obj.allowed_surfaces])
-        grid = footprint_grid(l, w)
+        grid = footprint_grid(*standing_footprint(obj.class_name, (l, w, h)))
 
         def share_on(f):
             sup = footprint_support(f, m, grid, allowed, noise)

@@ -2,11 +2,12 @@
 cast shadow changes the light on the road, not the road."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
 from synthcompose.geometry.depth import disparity_to_depth
-from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
+from synthcompose.placement.surfaces import GRASS_SATURATION, ROAD, SIDEWALK, TERRAIN, find_surfaces
 from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
 
 from ..tolerances import (
@@ -18,6 +19,8 @@ from ..tolerances import (
 
 #: a low sun ahead-left: the left row's shadow covers the road near the car, the road beyond it
 #: lies in the sun; daylight is a bluish sky and a yellowish sun, 1:3 (sunny Cityscapes frames)
+#: sunlit asphalt beside a shadow is this many LAB b* units yellower (sunny Cityscapes frames: 3-7)
+SUN_YELLOWER_B = 6
 SUN = SceneLight(sun_azimuth_deg=60.0, sun_elevation_deg=40.0, sun_fraction=0.75,
                  sky_tint=(0.8, 0.95, 1.25), sun_tint=(1.1, 1.0, 0.85))
 
@@ -36,6 +39,54 @@ def test_found_road_runs_on_into_the_sun_beyond_a_cast_shadow():
     assert (labels[beyond] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
     side = labels == SIDEWALK
     assert side.sum() > 0 and (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_SUNNY_MIN
+
+
+def test_sunlit_asphalt_beside_the_shade_is_road_not_grass():
+    """Sunlight is yellower than the skylight of a shadow: asphalt lit by the sun beside the
+    shaded road in front of the car is a few LAB b* units yellower but no more saturated. It is
+    road (the grass test for the road asks for grass's saturation); the rest of the road and
+    the sidewalk are found as before."""
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512)
+    arrays = render_scene(scene, stereo="realistic", photo="realistic")
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    u = np.arange(truth.shape[1])[None, :]
+    lit = (truth == ROAD) & (u < scene.camera.u0 - 60) & (z > 5) & (z < 30)  # the left lanes
+    assert lit.sum() > 20000
+    lab = cv2.cvtColor(arrays["rgb"], cv2.COLOR_RGB2LAB).astype(np.int16)
+    lab[..., 2][lit] += SUN_YELLOWER_B
+    rgb = cv2.cvtColor(np.clip(lab, 0, 255).astype(np.uint8), cv2.COLOR_LAB2RGB)
+    sat = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 1]
+    shade = (truth == ROAD) & ~lit & (z > 6) & (z < 15)
+    assert np.median(sat[lit]) - np.median(sat[shade]) < GRASS_SATURATION  # as yellow, not as saturated as grass
+    labels = find_surfaces(arrays["disparity"], rgb, scene.camera).labels
+    assert (labels[lit] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
+    assert (labels[shade] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
+
+
+def test_grass_verges_are_found_beside_the_road_never_on_it():
+    """Streets whose strips beside the kerb are grass (greener and yellower than the road, by
+    what real verges measure) get them found as terrain - where a sign may stand - beside the
+    road and never on the carriageway; over six generated streets a third of the verge within
+    25 m is found."""
+    found = total = 0
+    for seed in range(6):
+        scene = random_scene(np.random.default_rng([31, seed]), 1024, 512, street="two-way" if seed % 2 else None)
+        arrays = render_scene(scene, stereo="realistic", photo="realistic")
+        truth = arrays["label_ids"]
+        z = disparity_to_depth(arrays["disparity"], scene.camera)
+        lab = cv2.cvtColor(arrays["rgb"], cv2.COLOR_RGB2LAB).astype(np.int16)
+        grass = truth == SIDEWALK
+        lab[..., 1][grass] -= 5
+        lab[..., 2][grass] += 10
+        rgb = cv2.cvtColor(np.clip(lab, 0, 255).astype(np.uint8), cv2.COLOR_LAB2RGB)
+        verge = find_surfaces(arrays["disparity"], rgb, scene.camera).labels == TERRAIN
+        near = grass & (z < 25)
+        found, total = found + int(verge[near].sum()), total + int(near.sum())
+        if verge.any():
+            assert (truth[verge] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_MIN, seed
+            assert (truth[verge] == ROAD).mean() < 0.01, seed
+    assert found > 0.3 * total
 
 
 @pytest.mark.xfail(strict=True, reason=(

@@ -10,8 +10,10 @@ import pytest
 
 from synthcompose.geometry.depth import disparity_to_depth, make_frame
 from synthcompose.labels import label_id
-from synthcompose.placement import PlacementRules, footprint_corners, footprints_overlap, place_object
+from synthcompose.placement import PlacementRules, check_pose, footprint_corners, footprints_overlap, place_object
 from synthcompose.placement.lanes import _carriageway_lanes
+from synthcompose.placement.poses import PoseTests
+from synthcompose.placement.rules import POLE_FOOT, standing_footprint
 from synthcompose.placement.street import Carriageway, StreetLine, find_street
 from synthcompose.placement.traffic import SIGN_EDGE, sign_distance
 from synthcompose.synthetic import StreetKind, random_scene, render_scene
@@ -162,6 +164,35 @@ def test_signs_stand_on_grass_verges_and_islands_people_do_not(street):
         near = sign_distance(SIZES["traffic sign"])
         assert near - 0.4 <= abs(b) - scene.road_half_width <= near + SIGN_EDGE + 0.4
     assert not _placed_in_turn(verge, "person", 1, 6)
+
+
+def test_a_sign_needs_ground_under_its_pole_not_under_its_plate(street):
+    """A sign stands on its pole: the support asked (placement's and the checker's) is the
+    pole's foot, so its plate may reach over a verge's edge or a hedge's foot; a car's whole
+    footprint needs ground."""
+    _, frame = street
+    sign, car = SIZES["traffic sign"], SIZES["car"]
+    assert standing_footprint("traffic sign", sign) == (min(sign[0], POLE_FOOT), POLE_FOOT)
+    assert standing_footprint("car", car) == car[:2]
+    grid = PoseTests.of(frame, sign, RULES, ("sidewalk",), "traffic sign").grid
+    reach = POLE_FOOT / 2 + RULES.footprint_margin
+    assert np.abs(grid[:, 1]).max() <= reach + 1e-9 < sign[1] / 2
+    placed = _placed_in_turn(frame, "traffic sign", 2, 8)
+    assert placed and all(check_pose(frame, "traffic sign", sign, p.matrix, RULES) is None for p in placed)
+
+
+def test_signs_and_people_stand_plumb_vehicles_lie_on_the_ground():
+    """On a street climbing 6 % and cambered, a sign's pole and a person stand plumb (gravity);
+    a car's axes follow the road's plane."""
+    scene = random_scene(np.random.default_rng([21, 0]), W, H, street="two-way", slope=0.06)
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera,
+                       photo=arrays["rgb"])
+    for cls in ("traffic sign", "person"):
+        placed = _placed_in_turn(frame, cls, 2, 8)
+        assert placed and all(np.allclose(p.matrix[:3, 2], (0.0, 0.0, 1.0)) for p in placed), cls
+    cars = _placed_in_turn(frame, "car", 2, 8)
+    assert cars and all(math.degrees(math.acos(p.matrix[2, 2])) > 1.5 for p in cars)
 
 
 def test_left_hand_traffic_mirrors_the_directions():
