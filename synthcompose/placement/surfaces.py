@@ -35,6 +35,7 @@ from synthcompose.geometry.depth import nearest_in_row
 from synthcompose.io.files import decode_disparity
 from synthcompose.labels import label_id
 
+from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_tilt
 from .noise import measure_sigma
 
 ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
@@ -48,8 +49,6 @@ LEVEL_SIDEWALK = True
 ENCLOSED_PX = 24
 #: level ground: within this height of the road profile (or the noise band), metres
 LEVEL_BAND = 0.05
-#: the road's crown is fitted within this far across from the car, metres
-CROWN_REACH = 3.5
 #: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
 GRASS_SATURATION, GRASS_YELLOW = 18, 5
 #: a grass verge: at most this OpenCV hue (yellow-green, not the cyan cast of dark asphalt)
@@ -59,12 +58,9 @@ VERGE_HUE_MAX, VERGE_SATURATION = 65, 5
 TOUCH_PX = 4
 #: the foot of an object: the ground this far (metres) above a pixel, at its depth, stands up
 FOOT_REACH = 0.6
-#: the car's own lane ahead: within this far left or right of the camera (metres), 4 m to
+#: the car's own lane ahead (within LANE_HALF of the camera's line), 4 m to
 #: LANE_REACH ahead, level and continuous from the seed, is carriageway, sunlit or in shadow
-LANE_HALF, LANE_REACH = 1.2, 40.0
-#: the ground profile follows the road's bends: rows within this share of the quadratic
-#: profile's disparity, their offsets smoothed over this many working rows
-PROFILE_FOLLOW, PROFILE_ROWS = 0.06, 11
+LANE_REACH = 40.0
 #: a second light on the lane (a sunlit band beyond a cast shadow, or the reverse): lane
 #: pixels off the road's colour models on rows where at least LANE_BAND_SHARE of the lane is off
 #: them (a light band spans the lane; paint does not), at least LANE_MODE_SHARE of the frame's
@@ -90,87 +86,6 @@ class Surfaces:
                 "sigma_disparity_px": round(self.sigma_d, 4)}
 
 
-def plane_disparity(camera: Camera, rows: np.ndarray, width: int) -> np.ndarray:
-    """(len(rows), width) disparity of the camera's ground plane z = 0 (V) at each pixel (0
-    above the horizon)."""
-    u = np.arange(width, dtype=np.float64)
-    v = np.asarray(rows, np.float64)[:, None]
-    ray_o = np.stack(np.broadcast_arrays((u[None] - camera.u0) / camera.fx, (v - camera.v0) / camera.fy,
-                                         np.ones((len(rows), width))), -1)
-    m = camera.vehicle_from_optical
-    ray_z = ray_o @ m[2, :3]  # height change along the ray per unit optical depth
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(ray_z < -1e-6, -m[2, 3] / ray_z, np.inf)  # optical depth where the ray meets z = 0
-    return np.where(np.isfinite(z), camera.fx * camera.baseline / z, 0.0)
-
-
-def _profile(disp: np.ndarray, plane: np.ndarray, cam: Camera) -> np.ndarray:
-    """(h,) ground disparity per row: per row, the median disparity of the pixels within 12 %
-    of the camera's plane, weighted to the central columns; then a robust quadratic in the
-    row of d_g / d_plane, so slopes and pitch are followed but single rows are not."""
-    h, w = disp.shape
-    centre = np.abs(np.arange(w) - w / 2) < 0.35 * w
-    rows, ratio, weight = [], [], []
-    for r in range(h):
-        p = plane[r, w // 2]
-        if p <= 1.0:
-            continue
-        d = disp[r, centre]
-        pr = plane[r, centre]
-        near = np.isfinite(d) & (np.abs(d / pr - 1) < 0.12)
-        if near.sum() < 0.1 * centre.sum():
-            continue
-        rows.append(r)
-        ratio.append(float(np.median(d[near] / pr[near])))
-        weight.append(float(near.sum()))
-    out = np.full(h, np.nan)
-    if len(rows) < 10:
-        ok = plane[:, w // 2] > 1.0
-        out[ok] = 1.0
-        return out
-    rows, ratio, weight = np.array(rows, float), np.array(ratio), np.sqrt(np.array(weight))
-    keep = np.ones(len(rows), bool)
-    coef = np.array([0.0, 0.0, 1.0])
-    for _ in range(4):
-        coef = np.polyfit(rows[keep] / h, ratio[keep], 2, w=weight[keep])
-        res = ratio - np.polyval(coef, rows / h)
-        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.005)
-    ok = plane[:, w // 2] > 1.0
-    fit = np.polyval(coef, np.arange(h) / h)
-    out[ok] = (fit + _bends(disp, plane, fit, cam))[ok]
-    return out  # ratio to the plane's disparity, per row
-
-
-def _bends(disp: np.ndarray, plane: np.ndarray, fit: np.ndarray, cam: Camera) -> np.ndarray:
-    """(h,) the road's bends off the quadratic profile (a dip before a junction, a crest): per
-    row, the median ratio of the car's own lane ahead (within LANE_HALF of the camera's line:
-    carriageway, not the pavements that pull the wide median) within PROFILE_FOLLOW of the
-    fit, its offset smoothed over PROFILE_ROWS rows (a road bends over metres, never row by
-    row); 0 where no row has support. ``cam``: the working camera."""
-    h, w = disp.shape
-    cols = np.arange(w)
-    rows, off = [], []
-    for r in range(h):
-        p = plane[r, int(round(cam.u0))] if 0 <= cam.u0 < w else plane[r, w // 2]
-        if p <= 1.0:
-            continue
-        half = LANE_HALF * p * fit[r] / cam.baseline  # pixels: LANE_HALF at the ground's depth
-        lane = np.abs(cols - cam.u0) < half
-        rr = disp[r, lane] / plane[r, lane]
-        near = np.isfinite(rr) & (np.abs(rr / fit[r] - 1) < PROFILE_FOLLOW)
-        if near.sum() < max(5, 0.3 * lane.sum()):
-            continue
-        rows.append(r)
-        off.append(float(np.median(rr[near])) - fit[r])
-    if len(rows) < PROFILE_ROWS:
-        return np.zeros(h)
-    off = np.array(off)
-    k = PROFILE_ROWS // 2
-    med = np.array([np.median(off[max(0, i - k):i + k + 1]) for i in range(len(off))])
-    mean = np.convolve(np.pad(med, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), mode="valid")
-    return np.interp(np.arange(h), rows, mean, left=0.0, right=0.0)
-
-
 def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) -> Surfaces:
     """Road and sidewalk labels of a frame from its Cityscapes disparity (uint16 PNG values)
     and photo (H, W, 3 uint8 RGB)."""
@@ -185,12 +100,12 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     sub = replace(camera, fx=camera.fx * SCALE, fy=camera.fy * SCALE, u0=camera.u0 * SCALE,
                   v0=camera.v0 * SCALE, width=w, height=h)
     plane = plane_disparity(sub, np.arange(h), w)
-    ratio = _profile(disp, plane, sub)
+    ratio = ground_profile(disp, plane, sub)
     ground_d = plane * ratio[:, None]
     with np.errstate(invalid="ignore", divide="ignore"):
         height = camera.z * (1.0 - ground_d / disp)
     height = np.where(np.isfinite(height) & (ground_d > 0), height, np.nan).astype(np.float32)
-    height -= _tilt(height, dsub, sub, camera.fx * camera.baseline)
+    height -= road_tilt(height, dsub, sub, camera.fx * camera.baseline)
     filled = np.where(np.isnan(height), 10.0, height).astype(np.float32)
     smooth = cv2.medianBlur(filled, 5)
     smooth[np.isnan(height)] = np.nan
@@ -266,36 +181,6 @@ def _beside(mask: np.ndarray, near_road: np.ndarray, least: int = 200) -> np.nda
     touches &= np.bincount(comp.ravel(), minlength=n) >= least
     touches[0] = False
     return touches[comp]
-
-
-def _tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.ndarray:
-    """(h, w) the road's remaining slope across and along the view: a robust plane h = a + b x +
-    c y + d y^2 (x forward, y left, metres: d is the crown of a cambered road, whose middle stands
-    above its gutters) through the near-level pixels, so a cambered or sideways
-    sloping road stays level from kerb to kerb. ``d``: full-resolution disparity at the
-    working pixels of ``cam``; ``fb``: the full-resolution f B."""
-    u = np.arange(height.shape[1])[None, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        z = np.where(np.isfinite(height) & (d > 0), fb / d, np.nan)
-    lateral = -(u - cam.u0) * z / cam.fx
-    # the carriageway around the car only: a kerbside pavement 10-15 cm up must not bend the
-    # crown up to it (it would read as road); beyond CROWN_REACH the crown is held
-    ok = np.isfinite(height) & (np.abs(height) < 0.1) & (z > 4) & (z < 30) & (np.abs(lateral) < CROWN_REACH)
-    if ok.sum() < 500:
-        return np.zeros_like(height)
-    sel = np.flatnonzero(ok.ravel())[:: max(1, int(ok.sum() // 20000))]
-    A = np.column_stack([np.ones(len(sel)), z.ravel()[sel], lateral.ravel()[sel], lateral.ravel()[sel] ** 2])
-    hv = height.ravel()[sel]
-    keep = np.ones(len(sel), bool)
-    coef = np.zeros(4)
-    for _ in range(4):
-        coef, *_ = np.linalg.lstsq(A[keep], hv[keep], rcond=None)
-        res = hv - A @ coef
-        keep = np.abs(res) < max(3 * 1.4826 * np.median(np.abs(res[keep])), 0.02)
-    lat = np.nan_to_num(lateral)
-    held = np.clip(lat, -CROWN_REACH, CROWN_REACH)
-    tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * held ** 2
-    return tilt.astype(np.float32)
 
 
 def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:
