@@ -58,8 +58,8 @@ def light_range(half: float) -> float:
 class ShadowMaps:
     """The three depth maps (``shadow_size`` square) and their framebuffers: :attr:`maps`,
     (texture, framebuffer) of the sun, the sky and the undersides; and the ground planes' sky
-    (:data:`GROUND_SKY_SIZE` square, one float a texel, of which :func:`ground_sky_texels` are used: the share of the sky the ground there
-    sees past the objects)."""
+    (:data:`GROUND_SKY_SIZE` square, one float a texel, of which :func:`ground_sky_texels` are
+    used: the share of the sky the ground there sees past the objects)."""
 
     def __init__(self, gl: GLContext, shadow_size: int) -> None:
         ctx = gl.ctx
