@@ -5,9 +5,14 @@ with the bundled manifest's objects (cars weighed up), estimated light and camer
   eye; frames not listed are ambiguous), the metres of shadow edge the ground plan shows (the
   estimate's own margin: 2 m decide), and on frames called sunny the angle between the inserted
   shadows and the real ones: the real shadows' orientation is the strongest direction of the
-  shadow edges on the input's ground plan (lighting.plansun), an inserted object's shadow
-  direction runs from its footprint to the centre of the ground it darkens on the plan
-  (shadowlook.shadow_orientation); the angle is taken mod 180 (0-90 degrees);
+  shadow edges on the input's ground plan (lighting.plansun); an inserted object's cast shadow
+  is what the sun darkens: the frames called sunny are rendered a second time, the same objects
+  and light but the sun's share given to the sky (its occlusion shadow alone); the ground darker
+  than that render is the cast shadow, whose direction (and length) is the box shadow that
+  matches it best (shadowlook.cast_shadow_fit); the angle is taken mod 180 (0-90 degrees). The earlier
+  measure, from the footprint to the centre of all the ground the object darkens (occlusion
+  included: the ground between it and the camera, whatever the sun; shadowlook.shadow_orientation),
+  is printed beside it;
 * per inserted car at least 150 px wide: ``under`` (shadowlook.under on the car as annotated,
   the ground 2-8 px under its lowest pixel over 20-40 px under), ``outline`` (straight lines of
   the ratio output / input near it, over its width) and roughness (look.shadow_blotchiness);
@@ -25,6 +30,7 @@ import argparse
 import json
 import sys
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -38,13 +44,14 @@ from eval_real import done_outputs  # noqa: E402
 
 from evaluation import shadowlook  # noqa: E402
 from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
-from synthcompose.io.dataset import labelled_twin, read_image_set  # noqa: E402
+from synthcompose.io.dataset import find_image_sets, labelled_twin, read_image_set  # noqa: E402
 from synthcompose.io.files import decode_rle  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.lighting import plansun  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
 from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.placement.boxes import footprint_corners  # noqa: E402
 from synthcompose.placement.surfaces import frame_for  # noqa: E402
 from synthcompose.run.batch import run_batch  # noqa: E402
 
@@ -57,8 +64,38 @@ def _frame_key(name: str) -> str:
     return "_".join(name.split("_")[:2])
 
 
-def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None) -> tuple[list, list, list]:
-    """(frames, inserted cars, real cars) of one batch's outputs under ``out``."""
+def _called_sunny(record: Path) -> bool:
+    """A done image set's record says its photo was called sunny."""
+    if not record.is_file():
+        return False
+    rec = json.loads(record.read_text())
+    return rec.get("status") == "done" and bool(rec.get("lighting", {}).get("sunny"))
+
+
+def sunless_batch(manifest: Path, out: Path, frames: list[str]) -> None:
+    """The batch of ``manifest`` on ``frames`` again into ``out``, in this process, each photo's
+    light estimated as before but with the sun's share given to the sky: the same objects, poses
+    and camera match, their occlusion shadow without the sun's cast shadow."""
+    import importlib
+
+    prepare = importlib.import_module("synthcompose.stages.prepare")  # the module (the package exports a function)
+    estimate = prepare.estimate_lighting
+
+    def sunless(*args, **kwargs):
+        return replace(estimate(*args, **kwargs), sunny=False, sun_fraction=0.0)
+
+    m = replace(load_manifest(manifest), output=out, frames=tuple(frames))
+    prepare.estimate_lighting = sunless
+    try:
+        run_batch(m, workers=1, progress=False, resume=False)
+    finally:
+        prepare.estimate_lighting = estimate
+
+
+def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
+            sunless: Path | None = None) -> tuple[list, list, list]:
+    """(frames, inserted cars, real cars) of one batch's outputs under ``out``; ``sunless``: the
+    output root of :func:`sunless_batch` for its frames called sunny."""
     frames, cars, real = [], [], []
     for ident, rec, src, res in done_outputs(root, out):
         depth = disparity_to_depth(src.disparity, src.camera)
@@ -79,13 +116,21 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None) -
         if ref is not None:
             objects |= ref.instance_ids >= 1000
         outlines = shadowlook.outline(src.rgb, res.rgb, masks)
-        angles = []
-        for obj, m, line in zip(rec["objects"], masks, outlines):
+        twin = None
+        if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
+            twin = read_image_set(sunless, ident)
+        feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
+        angles, angles_all = [], []
+        for k, (obj, m, line) in enumerate(zip(rec["objects"], masks, outlines)):
             angle = None
             if sunny and real_dir is not None:
                 d = shadowlook.shadow_orientation(src.rgb, res.rgb, m, obj["pose"]["vehicle"]["position_m"],
                                                   (plan.u, plan.v), plan.xy)
-                angle = None if d is None else shadowlook.axis_angle(d, real_dir)
+                if d is not None:
+                    angles_all.append(shadowlook.axis_angle(d, real_dir))
+            if twin is not None:
+                fit = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, k, feet, plan)
+                angle = None if fit is None else shadowlook.axis_angle(fit[0], real_dir)
                 if angle is not None:
                     angles.append(angle)
             ys, xs = np.nonzero(m)
@@ -106,7 +151,7 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None) -
         frames.append({"frame": ident.name, "label": labels.get(_frame_key(ident.name), "?"), "sunny": sunny,
                        "edge_m": plan_cue.get("edge_length_m"), "azimuth": light.get("sun_azimuth_deg"),
                        "elevation": light.get("sun_elevation_deg"), "real_dir": real_dir,
-                       "angles": angles})
+                       "angles": angles, "angles_all": angles_all})
     return frames, cars, real
 
 
@@ -131,6 +176,7 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
     sunny_l = [f for f in seen.values() if f["label"] == "sunny"]
     over_l = [f for f in seen.values() if f["label"] == "overcast"]
     angles = [a for f in frames if f["sunny"] for a in f["angles"]]
+    angles_all = [a for f in frames if f["sunny"] for a in f.get("angles_all", [])]
     unders = [c["under"] for c in cars if c["under"] is not None]
     real_u = [r["under"] for r in real if r["under"] is not None]
     outl = [c["outline"] for c in cars if c["outline"] is not None]
@@ -140,6 +186,7 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         "overcast_called_sunny": f"{sum(f['sunny'] for f in over_l)}/{len(over_l)}",
         "angles_within_15": f"{sum(a <= ANGLE_OK for a in angles)}/{len(angles)}",
         "angle_median": float(np.median(angles)) if angles else None,
+        "angles_within_15_all_darkening": f"{sum(a <= ANGLE_OK for a in angles_all)}/{len(angles_all)}",
         "under_inserted": _summary(unders), "under_real": _summary(real_u),
         "outline_over_0.2": f"{sum(v > 0.2 for v in outl)}/{len(outl)}",
         "rough_le_0.3": f"{sum(v <= 0.3 for v in rough)}/{len(rough)}",
@@ -165,7 +212,11 @@ def run(root: Path, base: Path, seeds, objects: int, labels: dict, truth: Path |
             base.mkdir(parents=True, exist_ok=True)
             manifest = load_manifest(write_manifest(root, out, objects, seed, 6.0, base))
             run_batch(manifest, workers=1, progress=False, resume=False)
-        f, c, r = measure(root, out, labels, truth)
+        sunny = [ident.name for ident in find_image_sets(out) if _called_sunny(ident.path(out, "record"))]
+        sunless = base / f"out_{seed}_sunless"
+        if sunny and not measure_only:
+            sunless_batch(base / f"look_manifest_{seed}.json", sunless, sunny)
+        f, c, r = measure(root, out, labels, truth, sunless if sunless.is_dir() else None)
         frames += f
         cars += c
         real += r if seed == seeds[0] else []

@@ -7,7 +7,9 @@ sun and the ground contact are judged by (the look's other measures: :mod:`synth
   edges of a shadow receiver ("a faint box on the road"), in units of the object's width;
 * :func:`real_shadow_orientation` and :func:`shadow_orientation` - the orientation on the
   ground plan of the photo's own shadow edges, and the direction the inserted shadow is thrown
-  in, for the angle between them (:func:`axis_angle`);
+  in, for the angle between them (:func:`axis_angle`); :func:`cast_shadow_fit` the direction
+  and length of the sun's cast shadow alone (the output against the same batch rendered
+  without a sun);
 * :func:`read_sun_labels` - the sunny / overcast labels, by eye, of a set of frames.
 
 All work on full-frame arrays as written (sRGB uint8, masks as bool).
@@ -30,6 +32,11 @@ UNDER_MIDDLE = 0.6
 #: objects grown by (pixels), probabilistic Hough (threshold, shortest line, largest gap)
 OUTLINE_BLUR, OUTLINE_SCALE, OUTLINE_CANNY = 1.0, 200.0, (4, 8)
 OUTLINE_GROW, OUTLINE_HOUGH = 5, (30, 60, 3)
+#: the cast shadow: ground at most this bright against the sun-less render, within this many
+#: metres of the object's footprint (a car's shadow at a 15-degree sun reaches 6 m)
+CAST_DARKER, CAST_REACH = 0.85, 8.0
+#: the cast shadow lengths tried (metres)
+CAST_LENGTHS = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.5, 8.0)
 
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:
@@ -146,6 +153,75 @@ def shadow_orientation(src: np.ndarray, out: np.ndarray, mask: np.ndarray, footp
     if np.hypot(*d) < 0.2:
         return None
     return float(math.degrees(math.atan2(d[1], d[0])) % 360.0)
+
+
+def cast_shadow_fit(sunless: np.ndarray, out: np.ndarray, masks: list[np.ndarray], k: int,
+                    footprints: list[np.ndarray], plan, darker: float = CAST_DARKER,
+                    reach: float = CAST_REACH) -> tuple[float, float, float] | None:
+    """Object ``k``'s cast shadow on the ground plan, fitted: (azimuth in degrees from x towards y,
+    mod 360, in which the shadow is thrown; its length in metres; the fit's intersection over
+    union), or None where too little of it is seen.
+
+    The cast shadow is the ground the sun darkens: the output over ``sunless`` (the same image
+    set, objects and light but the sun's share given to the sky: their occlusion shadow alone)
+    below ``darker``. Seen are the plan's cells inside the image, off every object's pixels
+    (grown by 3), within ``reach`` metres of the object's footprint and nearer to it than to any
+    other's (``footprints``: each object's (4, 2) ground corners). The shadow a box throws is
+    the convex hull of its footprint and the footprint moved by L along the shadow's azimuth (L:
+    its height over tan(elevation)); the azimuth and L whose hull best matches the dark cells
+    seen (3 degrees, 0.25-8 m) are the fit. Measured this way the occlusion shadow (darkest on
+    the ground between the object and the camera, whatever the sun) does not count, and the
+    direction is not the object's own shape (a high sun's short shadow is a thin band along the
+    footprint's sunless sides)."""
+    H, W = out.shape[:2]
+    u, v = plan.u, plan.v
+    x0, y0 = plan.origin
+    cell = float(np.hypot(*(plan.xy(np.array([1]), np.array([0]))[0] - plan.xy(np.array([0]), np.array([0]))[0])))
+    corners = np.asarray(footprints[k], float)
+    centre = corners.mean(axis=0)
+    # a window of the plan around the object
+    r0 = max(int((centre[0] - reach - x0) / cell), 0)
+    r1 = min(int((centre[0] + reach - x0) / cell) + 1, u.shape[0])
+    c0 = max(int((y0 - centre[1] - reach) / cell), 0)
+    c1 = min(int((y0 - centre[1] + reach) / cell) + 1, u.shape[1])
+    if r1 - r0 < 2 or c1 - c0 < 2:
+        return None
+    uw, vw = u[r0:r1, c0:c1], v[r0:r1, c0:c1]
+    inside = plan.valid[r0:r1, c0:c1] & (uw >= 0) & (vw >= 0) & (uw <= W - 1) & (vw <= H - 1)
+    ui = np.clip(np.rint(uw), 0, W - 1).astype(np.int64)
+    vi = np.clip(np.rint(vw), 0, H - 1).astype(np.int64)
+    objects = np.zeros((H, W), np.uint8)
+    for m in masks:
+        objects |= m.astype(np.uint8)
+    grown = cv2.dilate(objects, np.ones((7, 7), np.uint8)) > 0
+    rows, cols = np.mgrid[r0:r1, c0:c1]
+    xy = plan.xy(rows.ravel(), cols.ravel()).reshape(rows.shape + (2,))
+    dist = np.stack([np.hypot(*(xy - np.asarray(f, float).mean(axis=0)).transpose(2, 0, 1)) for f in footprints])
+    seen = inside & ~grown[vi, ui] & (dist.argmin(axis=0) == k) & (dist[k] <= reach)
+    ratio = _luminance(out) / np.maximum(_luminance(sunless), 1e-4)
+    dark = seen & (ratio[vi, ui] < darker)
+    if dark.sum() < 20:
+        return None
+
+    def raster(points: np.ndarray) -> np.ndarray:
+        """Cells of the window inside the convex hull of ground points (N, 2)."""
+        rc = np.column_stack([(y0 - points[:, 1]) / cell - 0.5 - c0, (points[:, 0] - x0) / cell - 0.5 - r0])
+        hull = cv2.convexHull(np.rint(rc).astype(np.int32))
+        img = np.zeros(seen.shape, np.uint8)
+        cv2.fillConvexPoly(img, hull, 1)
+        return img.astype(bool)
+
+    best = None
+    n_dark = float(dark.sum())
+    for az in np.arange(0.0, 360.0, 3.0):
+        step = np.array([math.cos(math.radians(az)), math.sin(math.radians(az))])
+        for length in CAST_LENGTHS:
+            pred = raster(np.concatenate([corners, corners + length * step])) & seen
+            inter = float((pred & dark).sum())
+            iou = inter / (n_dark + float(pred.sum()) - inter)
+            if best is None or iou > best[2]:
+                best = (float(az), float(length), iou)
+    return best
 
 
 def axis_angle(a_deg: float, b_deg: float) -> float:

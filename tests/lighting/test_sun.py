@@ -175,3 +175,43 @@ def test_the_under_measure_and_the_labels_file(tmp_path):
     f.write_text("cloudy a_1\n")
     with pytest.raises(ValueError, match="labels.txt"):
         shadowlook.read_sun_labels(f)
+
+
+def test_the_cast_shadow_fit_finds_the_direction_a_box_throws_its_shadow():
+    """A top-down plan (a cell a pixel, 5 cm): a car's footprint and the shadow a box throws along
+    an azimuth; the fit reads that azimuth back, whatever the occlusion shadow beside it."""
+    from types import SimpleNamespace
+
+    from synthcompose.placement.boxes import footprint_corners
+
+    n, cell, x0, y0 = 240, 0.05, 4.0, 6.0
+    rows, cols = np.mgrid[0:n, 0:n]
+    plan = SimpleNamespace(u=cols.astype(np.float32), v=rows.astype(np.float32), valid=np.ones((n, n), bool),
+                           origin=(x0, y0),
+                           xy=lambda r, c: np.column_stack([x0 + (np.asarray(r) + 0.5) * cell,
+                                                            y0 - (np.asarray(c) + 0.5) * cell]))
+    pose = np.eye(4)
+    pose[:2, 3] = (10.0, 0.0)
+    feet = footprint_corners(pose, (4.4, 1.8, 1.5))
+    xy = plan.xy(rows.ravel(), cols.ravel()).reshape(n, n, 2)
+
+    def inside(points):  # cells inside the convex hull of ground points
+        rc = np.column_stack([(y0 - points[:, 1]) / cell - 0.5, (points[:, 0] - x0) / cell - 0.5])
+        img = np.zeros((n, n), np.uint8)
+        cv2.fillConvexPoly(img, cv2.convexHull(np.rint(rc).astype(np.int32)), 1)
+        return img.astype(bool)
+
+    car = inside(feet)
+    # the occlusion shadow, in both renders: darkest between the car and the camera (low x)
+    occlusion = 1.0 - 0.3 * np.exp(-np.hypot(xy[..., 0] - 8.0, xy[..., 1]) ** 2 / 2.0)
+    sunless = np.clip(120 * occlusion, 0, 255).astype(np.uint8)[..., None].repeat(3, axis=2)
+    for azimuth in (250.0, 120.0):
+        step = 2.0 * np.array([math.cos(math.radians(azimuth)), math.sin(math.radians(azimuth))])
+        shadow = inside(np.concatenate([feet, feet + step])) & ~car
+        out = sunless.copy()
+        out[shadow] = (sunless[shadow] * 0.5).astype(np.uint8)
+        fit = shadowlook.cast_shadow_fit(sunless, out, [car], 0, [feet], plan)
+        assert fit is not None and shadowlook.axis_angle(fit[0], azimuth) <= 6.0 and abs(fit[0] - azimuth) < 90, fit
+        assert 1.0 <= fit[1] <= 3.0 and fit[2] > 0.8, fit
+    # no cast shadow (the occlusion shadow alone, the same in both): nothing to fit
+    assert shadowlook.cast_shadow_fit(sunless, sunless.copy(), [car], 0, [feet], plan) is None
