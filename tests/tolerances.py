@@ -261,6 +261,9 @@ PLANE_BORDER_RATIO = 0.004
 UNDER_REAL_RANGE = (0.29, 1.11)
 #: the estimated azimuth against the generated sun's, degrees, the orientation (mod 180)
 SUN_AZIMUTH_AXIS_DEG = 15.0
+#: the estimated sun's elevation against the generated sun's, where the casters tell it, degrees
+#: (the fallback without them is 70: a short shadow beside long real ones)
+SUN_ELEVATION_DEG = 15.0
 #: the penumbra at a shadow's far end over that near its caster (PCSS: it grows with the distance)
 PENUMBRA_GROWTH_MIN = 1.5
 #: the outline measure near a car on a flat photo of 3 levels' noise: the smooth falloff of its

@@ -65,7 +65,7 @@ class _CasterCue:
 
 
 def caster_cue(g: Grid, camera: Camera) -> _CasterCue | None:
-    ground, d_here = ground_cells(g, camera)
+    ground, d_here = ground_cells(g, camera, unknown_normals=True)
     standing = np.isin(g.label, OCCLUDER_IDS)
     # ground seen below something standing that is not clearly nearer than it (under a car's
     # body, at its foot) is dark from contact shadow alone

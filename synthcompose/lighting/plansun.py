@@ -188,48 +188,38 @@ DEFAULT_ELEVATION = 45.0
 
 
 def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
-    """The sun's (azimuth, elevation, info) along the edges' directions: for each peak azimuth
-    (and its half turn, unless the segments tell which), within 6 degrees, at
-    :data:`ELEVATIONS`, how the casters in view throw their shadows onto dark ground there
-    (``casters``: :class:`~.casters._CasterCue` or None). The strongest peak is the sun's unless
-    the casters agree clearly better (by :data:`PEAK_PREFERENCE`) with another; along it the
-    casters' best direction, or where none agrees, ``evidence(az, el) -> (score, info)`` (the
-    shading pairs and the predicted shadows) at :data:`DEFAULT_ELEVATION`. ``info`` is
-    evidence's at the chosen direction, with the casters' agreement."""
-    per_peak = []
-    for phi, _, side in ps.azimuths:
-        az, el = [], []
-        for base in ((phi, phi + 180.0) if side == 0 else ((phi,) if side > 0 else (phi + 180.0,))):
-            for d in (-6.0, -3.0, 0.0, 3.0, 6.0):
-                for e in ELEVATIONS:
-                    az.append((base + d) % 360.0)
-                    el.append(e)
-        best = (0.0, None)
-        if casters is not None:
-            agree, dark, _ = casters.score(np.array(az), np.array(el))
-            i = int(np.argmax(agree))
-            if agree[i] > 0 and dark[i] >= 10:
-                best = (float(agree[i]), (float(az[i]), float(el[i])))
-        per_peak.append((phi, side, best))
-    if not per_peak:
+    """The sun's (azimuth, elevation, info) along the strongest direction of the edges (the
+    first of ``ps.azimuths``): within 6 degrees of it, on the side its segments tell or on
+    either, at :data:`ELEVATIONS`, where the casters in view throw their shadows onto dark
+    ground (``casters``: :class:`~.casters._CasterCue` or None); where none does,
+    ``evidence(az, el) -> (score, info)`` (the shading pairs and the predicted shadows) chooses
+    the side at :data:`DEFAULT_ELEVATION`. ``info`` is evidence's at the chosen direction, with
+    the casters' agreement.
+
+    The casters tell the side and the height along that direction, never another one: their
+    agreement is a mean over points landing on darker or brighter ground than its kind's median,
+    and where most of a street lies in shadow (a canyon, the sun across it) the shadows of
+    either row of houses land on dark road in any direction that reaches it. Let to choose
+    among the edges' peaks they took a weak one (a car's side, 0.25 m of edge against 1.15 m)
+    on real frames; along the strongest, 11 (seed 3) and 9 (seed 5) of 12 generated sunny
+    scenes had the sun's axis within 15 degrees, against 10 and 8 when they chose."""
+    if not ps.azimuths:
         return 0.0, DEFAULT_ELEVATION, dict(evidence(0.0, DEFAULT_ELEVATION)[1], caster_agreement=0.0)
-    chosen = per_peak[0]
-    for other in per_peak[1:]:
-        if other[2][0] > PEAK_PREFERENCE * max(chosen[2][0], 1e-9) and other[2][0] > 0.01:
-            chosen = other
-    phi, side, (agreement, found) = chosen
+    phi, _, side = ps.azimuths[0]
+    bases = (phi, phi + 180.0) if side == 0 else ((phi,) if side > 0 else (phi + 180.0,))
+    agreement, found = 0.0, None
+    if casters is not None:
+        az = np.array([(b + d) % 360.0 for b in bases for d in (-6.0, -3.0, 0.0, 3.0, 6.0) for _ in ELEVATIONS])
+        el = np.array([e for _ in bases for _ in range(5) for e in ELEVATIONS])
+        agree, dark, _ = casters.score(az, el)
+        i = int(np.argmax(agree))
+        if agree[i] > 0 and dark[i] >= 10:
+            agreement, found = float(agree[i]), (float(az[i]), float(el[i]))
     if found is None:
-        tries = [((phi + h) % 360.0, DEFAULT_ELEVATION)
-                 for h in ((0.0, 180.0) if side == 0 else ((0.0,) if side > 0 else (180.0,)))]
-        found = max(tries, key=lambda t: evidence(*t)[0])
+        found = max(((b % 360.0, DEFAULT_ELEVATION) for b in bases), key=lambda t: evidence(*t)[0])
     info = dict(evidence(*found)[1])
     info["caster_agreement"] = agreement
     return found[0], found[1], info
-
-
-#: another peak of the edges' directions is the sun's when the casters agree this much better
-#: with it than with the strongest
-PEAK_PREFERENCE = 2.0
 
 
 def strength(ps: PlanSun) -> float:

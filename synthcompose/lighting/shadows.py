@@ -181,13 +181,16 @@ class Occluders:
             self.top)
 
 
-def ground_cells(g: Grid, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+def ground_cells(g: Grid, camera: Camera, unknown_normals: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Cells of pure ground (:data:`GROUND_IDS`) with a point and some light, facing up (not kerb
     faces; nan normals fail too), within 45 m of the camera on the ground plan; and every
     cell's distance from the camera on the ground plan."""
     dist = np.hypot(g.points[..., 0] - camera.x, g.points[..., 1] - camera.y)
     ground = g.pure & np.isin(g.label, GROUND_IDS) & np.isfinite(g.points[..., 0]) & (g.lum > 1e-4)
-    ground &= (g.normals[..., 2] > 0.9) & (dist < 45.0)
+    up = g.normals[..., 2] > 0.9
+    if unknown_normals:
+        up |= np.isnan(g.normals[..., 2])
+    ground &= up & (dist < 45.0)
     return ground, dist
 
 

@@ -28,6 +28,7 @@ from ..tolerances import (
     PENUMBRA_GROWTH_MIN,
     PLANE_BORDER_RATIO,
     SUN_AZIMUTH_AXIS_DEG,
+    SUN_ELEVATION_DEG,
     UNDER_REAL_RANGE,
 )
 
@@ -144,6 +145,21 @@ def test_a_sunny_generated_street_is_called_sunny_along_its_sun_and_an_overcast_
         assert ps.sunny == want and est.sunny == want, (ident.name, ps.to_dict())
         if want:
             assert shadowlook.axis_angle(est.sun_azimuth_deg, truth.sun_azimuth_deg) <= SUN_AZIMUTH_AXIS_DEG
+
+
+def test_the_casters_shadows_tell_a_low_suns_side_and_height(tmp_path):
+    """A generated street with the sun 29 degrees high: the shadows of what stands land on the
+    ground the casters' cue reads - every ground cell but a kerb's face, most of which have no
+    normal on stereo - so the sun's side and height are told, not put at the fallback's 70
+    degrees (a short shadow under the car beside the houses' long ones)."""
+    ident = make_sample(tmp_path, count=1, width=1024, height=512, seed=3, light="sunny")[0]
+    truth = sunny_light(np.random.default_rng([3, 0, 1]))
+    s = read_image_set(tmp_path, ident)
+    est = estimate_lighting(s.rgb, s.label_ids, disparity_to_depth(s.disparity, s.camera), s.camera)
+    off = abs((est.sun_azimuth_deg - truth.sun_azimuth_deg + 180.0) % 360.0 - 180.0)
+    assert est.sunny and est.cues["sun_direction_sure"] and off <= SUN_AZIMUTH_AXIS_DEG, est.cues
+    assert abs(est.sun_elevation_deg - truth.sun_elevation_deg) <= SUN_ELEVATION_DEG, \
+        (est.sun_elevation_deg, truth.sun_elevation_deg)
 
 
 def test_the_outline_measure_sees_a_receivers_box_and_not_a_smooth_shadow():
