@@ -181,7 +181,8 @@ class LightEstimate:
 
     def sun_mask(self, rgb: np.ndarray, label_ids: np.ndarray) -> np.ndarray | None:
         """(H, W) float32: :meth:`sun_visibility` of every ground pixel of the photo (its
-        luminance smoothed over 5x5 pixels), 1 elsewhere; None when not sunny."""
+        luminance smoothed over 5x5 pixels), of every unlabelled one (id 0) against the road's
+        level, 1 elsewhere; None when not sunny."""
         if not self.sunny or self.shadow_log_ratio >= 0 or not self.ground_levels:
             return None
         mask = np.ones(label_ids.shape, np.float32)
@@ -189,9 +190,18 @@ class LightEstimate:
             mask[np.isin(label_ids, GROUND_IDS)] = 0.0
             return mask
         lum = cv2.blur(LEVEL_LUT[rgb] @ LUM.astype(np.float32), (5, 5))
+        levels = dict(self.ground_levels)
         for label, level in self.ground_levels:
             sel = label_ids == label
             mask[sel] = self._ramp(np.log(np.maximum(lum[sel], 1e-6)), level)
+        # pixels no label names (a frame without labels: no disparity - the left image's border
+        # the right camera does not see - or ground the surfaces left out) are read against the
+        # road's level: an inserted shadow falls on them only where they are lit, not in full
+        # wherever the labels stop (a shadow cut along the disparity's straight border, specks
+        # in the found road's holes)
+        if ROAD_ID in levels:
+            sel = label_ids == 0
+            mask[sel] = self._ramp(np.log(np.maximum(lum[sel], 1e-6)), levels[ROAD_ID])
         return mask
 
     def to_dict(self) -> dict:

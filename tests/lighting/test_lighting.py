@@ -251,6 +251,26 @@ def test_objects_in_a_real_shadow_get_no_sun():
     assert overcast.sun_visibility(7, grey * 0.01) == 1.0
 
 
+def test_the_sun_mask_reads_unlabelled_pixels_against_the_roads_level():
+    """Pixels no label names (no disparity at the left border, ground the surfaces left out):
+    in a real shadow they get no sun, as the road beside them does, so an inserted shadow is not
+    drawn there in full (a dark patch cut along the disparity's border, specks in the road's
+    holes); lit ones get it."""
+    light = SceneLight(sun_azimuth_deg=-150.0, sun_elevation_deg=45.0, sun_fraction=0.65)
+    est, _, _ = estimate(1, light)
+    assert est.sunny and not est.ground_shadowed
+    lit = dict(est.ground_levels)[7]
+    shade = lit * math.exp(est.shadow_log_ratio)
+    level = np.array([[shade, shade, lit, lit]], np.float32).repeat(8, axis=0).repeat(8, axis=1)
+    lut = np.asarray(lighting.light.LEVEL_LUT, np.float32)  # a grey byte's linear luminance
+    rgb = np.searchsorted(lut, level).clip(0, 255).astype(np.uint8)[..., None].repeat(3, axis=2)
+    labels = np.array([[7, 0, 7, 0]], np.uint8).repeat(8, axis=0).repeat(8, axis=1)
+    mask = est.sun_mask(rgb, labels)
+    middle = mask[4, 4::8]  # the middle row, one pixel of each block away from the blocks' borders
+    assert middle[0] == pytest.approx(0.0) and middle[1] == pytest.approx(0.0), middle
+    assert middle[2] == pytest.approx(1.0) and middle[3] == pytest.approx(1.0), middle
+
+
 def test_estimate_is_deterministic_and_recordable():
     light = SceneLight(sun_azimuth_deg=150.0, sun_elevation_deg=40.0, sun_fraction=0.65)
     a, _, _ = estimate(2, light)
