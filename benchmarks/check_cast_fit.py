@@ -57,9 +57,8 @@ def check(root: Path, azimuth: float, elevation: float, base: Path, frames: list
         _, plan, _ = plansun.measure(src.rgb, labels, depth, src.camera, frame.labelled)
         masks = [shadowlook.annotated(decode_rle(o["mask_rle"])) for o in rec["objects"]]
         feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
-        for k, obj in enumerate(rec["objects"]):
-            rows.append((ident.name, k, obj["distance_m"],
-                         shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, k, feet, plan)))
+        fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan)
+        rows += [(ident.name, k, obj["distance_m"], fit) for k, (obj, fit) in enumerate(zip(rec["objects"], fits))]
     return rows
 
 

@@ -120,6 +120,7 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
             twin = read_image_set(sunless, ident)
         feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
+        fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan) if twin is not None else None
         angles, angles_all = [], []
         for k, (obj, m, line) in enumerate(zip(rec["objects"], masks, outlines)):
             angle = None
@@ -128,9 +129,8 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
                                                   (plan.u, plan.v), plan.xy)
                 if d is not None:
                     angles_all.append(shadowlook.axis_angle(d, real_dir))
-            if twin is not None:
-                fit = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, k, feet, plan)
-                angle = None if fit is None else shadowlook.axis_angle(fit[0], real_dir)
+            if fits is not None:
+                angle = None if fits[k] is None else shadowlook.axis_angle(fits[k][0], real_dir)
                 if angle is not None:
                     angles.append(angle)
             ys, xs = np.nonzero(m)

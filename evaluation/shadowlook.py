@@ -155,30 +155,43 @@ def shadow_orientation(src: np.ndarray, out: np.ndarray, mask: np.ndarray, footp
     return float(math.degrees(math.atan2(d[1], d[0])) % 360.0)
 
 
-def cast_shadow_fit(sunless: np.ndarray, out: np.ndarray, masks: list[np.ndarray], k: int,
-                    footprints: list[np.ndarray], plan, darker: float = CAST_DARKER,
-                    reach: float = CAST_REACH) -> tuple[float, float, float] | None:
-    """Object ``k``'s cast shadow on the ground plan, fitted: (azimuth in degrees from x towards y,
-    mod 360, in which the shadow is thrown; its length in metres; the fit's intersection over
-    union), or None where too little of it is seen.
+def cast_shadow_fit(sunless: np.ndarray, out: np.ndarray, masks: list[np.ndarray], footprints: list[np.ndarray],
+                    plan, darker: float = CAST_DARKER, reach: float = CAST_REACH) -> list[tuple[float, float, float] | None]:
+    """Each object's cast shadow on the ground plan, fitted: (azimuth in degrees from x towards
+    y, mod 360, in which the shadow is thrown; its length in metres; the fit's intersection over
+    union), or None where too little of it is seen; one per object of ``masks`` (its pixels) and
+    ``footprints`` (its (4, 2) ground corners).
 
     The cast shadow is the ground the sun darkens: the output over ``sunless`` (the same image
     set, objects and light but the sun's share given to the sky: their occlusion shadow alone)
     below ``darker``. Seen are the plan's cells inside the image, off every object's pixels
     (grown by 3), within ``reach`` metres of the object's footprint and nearer to it than to any
-    other's (``footprints``: each object's (4, 2) ground corners). The shadow a box throws is
-    the convex hull of its footprint and the footprint moved by L along the shadow's azimuth (L:
-    its height over tan(elevation)); the azimuth and L whose hull best matches the dark cells
-    seen (3 degrees, 0.25-8 m) are the fit. Measured this way the occlusion shadow (darkest on
-    the ground between the object and the camera, whatever the sun) does not count, and the
-    direction is not the object's own shape (a high sun's short shadow is a thin band along the
-    footprint's sunless sides)."""
+    other's. The shadow a box throws is the convex hull of its footprint and the footprint moved
+    by L along the shadow's azimuth (L: its height over tan(elevation)); the azimuth and L whose
+    hull best matches the dark cells seen (3 degrees, 0.25-8 m) are the fit. Measured this way
+    the occlusion shadow (darkest on the ground between the object and the camera, whatever the
+    sun) does not count, and the direction is not the object's own shape (a high sun's short
+    shadow is a thin band along the footprint's sunless sides)."""
     H, W = out.shape[:2]
+    ratio = _luminance(out) / np.maximum(_luminance(sunless), 1e-4)
+    objects = np.zeros((H, W), np.uint8)
+    for m in masks:
+        objects |= m.astype(np.uint8)
+    grown = cv2.dilate(objects, np.ones((7, 7), np.uint8)) > 0
+    centres = np.array([np.asarray(f, float).mean(axis=0) for f in footprints]).reshape(-1, 2)
+    return [_fit_cast(ratio, grown, np.asarray(f, float), k, centres, plan, darker, reach)
+            for k, f in enumerate(footprints)]
+
+
+def _fit_cast(ratio: np.ndarray, grown: np.ndarray, corners: np.ndarray, k: int, centres: np.ndarray, plan,
+              darker: float, reach: float) -> tuple[float, float, float] | None:
+    """:func:`cast_shadow_fit` of object ``k`` (footprint ``corners``; ``centres``: every
+    object's footprint centre) on the frame's ratio and grown objects' pixels."""
+    H, W = ratio.shape
     u, v = plan.u, plan.v
     x0, y0 = plan.origin
     cell = float(np.hypot(*(plan.xy(np.array([1]), np.array([0]))[0] - plan.xy(np.array([0]), np.array([0]))[0])))
-    corners = np.asarray(footprints[k], float)
-    centre = corners.mean(axis=0)
+    centre = centres[k]
     # a window of the plan around the object
     r0 = max(int((centre[0] - reach - x0) / cell), 0)
     r1 = min(int((centre[0] + reach - x0) / cell) + 1, u.shape[0])
@@ -190,15 +203,10 @@ def cast_shadow_fit(sunless: np.ndarray, out: np.ndarray, masks: list[np.ndarray
     inside = plan.valid[r0:r1, c0:c1] & (uw >= 0) & (vw >= 0) & (uw <= W - 1) & (vw <= H - 1)
     ui = np.clip(np.rint(uw), 0, W - 1).astype(np.int64)
     vi = np.clip(np.rint(vw), 0, H - 1).astype(np.int64)
-    objects = np.zeros((H, W), np.uint8)
-    for m in masks:
-        objects |= m.astype(np.uint8)
-    grown = cv2.dilate(objects, np.ones((7, 7), np.uint8)) > 0
     rows, cols = np.mgrid[r0:r1, c0:c1]
     xy = plan.xy(rows.ravel(), cols.ravel()).reshape(rows.shape + (2,))
-    dist = np.stack([np.hypot(*(xy - np.asarray(f, float).mean(axis=0)).transpose(2, 0, 1)) for f in footprints])
+    dist = np.hypot(xy[None, ..., 0] - centres[:, 0, None, None], xy[None, ..., 1] - centres[:, 1, None, None])
     seen = inside & ~grown[vi, ui] & (dist.argmin(axis=0) == k) & (dist[k] <= reach)
-    ratio = _luminance(out) / np.maximum(_luminance(sunless), 1e-4)
     dark = seen & (ratio[vi, ui] < darker)
     if dark.sum() < 20:
         return None

@@ -230,8 +230,8 @@ def test_the_cast_shadow_fit_finds_the_direction_a_box_throws_its_shadow():
         shadow = inside(np.concatenate([feet, feet + step])) & ~car
         out = sunless.copy()
         out[shadow] = (sunless[shadow] * 0.5).astype(np.uint8)
-        fit = shadowlook.cast_shadow_fit(sunless, out, [car], 0, [feet], plan)
+        fit = shadowlook.cast_shadow_fit(sunless, out, [car], [feet], plan)[0]
         assert fit is not None and shadowlook.axis_angle(fit[0], azimuth) <= 6.0 and abs(fit[0] - azimuth) < 90, fit
         assert 1.0 <= fit[1] <= 3.0 and fit[2] > 0.8, fit
     # no cast shadow (the occlusion shadow alone, the same in both): nothing to fit
-    assert shadowlook.cast_shadow_fit(sunless, sunless.copy(), [car], 0, [feet], plan) is None
+    assert shadowlook.cast_shadow_fit(sunless, sunless.copy(), [car], [feet], plan) == [None]
