@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from bench_cost import codec_cpu, run_batch, stage_cpu  # noqa: E402
+from bench_cost import codec_cpu, run_batch, stage_cpu, stage_table  # noqa: E402
 
 from synthcompose.io.dataset import find_image_sets  # noqa: E402
 
@@ -149,17 +149,10 @@ def main() -> int:
     codec = codec_cpu(data, min(12, count), right=True)
     print(f"codec (decode the inputs, encode the 6 outputs, one thread, level 1): {codec:.3f} CPU-s per set", flush=True)
     stages, n = stage_cpu(data, args.stage_sets, **VIEW)
-    gl = {k[3:]: v for k, v in stages.items() if k.startswith("gl ")}
-    plain = {k: v for k, v in stages.items() if not k.startswith("gl ")}
-    total, gl_all = sum(plain.values()), sum(gl.values())
     print(f"CPU-s per set by stage, one after the other in one process ({n} sets after one to warm up):")
-    print(f"  {'stage':<10}{'CPU-s':>8}{'of it GL':>10}")
-    for stage, v in plain.items():
-        print(f"  {stage:<10}{v:>8.3f}{gl.get(stage, 0.0):>10.3f}")
-    print(f"  {'sum':<10}{total:>8.3f}{gl_all:>10.3f}")
-    side = total - gl_all
-    print(f"CPU SIDE  {side:.3f} CPU-s per set = {side / codec:.2f} x the codec (target <= 1.5); whole set "
-          f"{total:.3f} = {total / codec:.2f} x", flush=True)
+    stage_table(stages, codec)
+    side = sum(v for k, v in stages.items() if not k.startswith("gl ")) - \
+        sum(v for k, v in stages.items() if k.startswith("gl "))
     rows = []
     for w in [int(v) for v in args.workers.split(",")]:
         rows.append(throughput(data, w, count))
