@@ -1,0 +1,91 @@
+"""Where the sun can stand: its elevation at each compass azimuth over a year, at the place a
+photo was taken (Cityscapes' vehicle file: GPS latitude and heading).
+
+A shadow edge on the ground gives the sun's azimuth up to its side (the sun or the point
+opposite) and no height. The sun's path is fixed by the latitude and the day: at 51 degrees
+north it never stands in the north, stands in the east or west only in summer and at most 31
+degrees high, and never higher than 62 degrees. Knowing the camera's compass heading turns the
+two candidate sides into compass azimuths, one of which the sun may never reach, and bounds the
+height at the other.
+
+Angles: compass azimuths in degrees clockwise from north; the vehicle frame's azimuths (x
+ahead, y left, as everywhere in :mod:`synthcompose.lighting`) counter-clockwise from ahead, so a
+direction at vehicle azimuth ``a`` points to compass ``heading - a``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+#: degrees: the Earth's axial tilt (the declination's range over a year)
+OBLIQUITY = 23.44
+#: degrees: a sun lower than this lights no street (its shadows are nearly six times as long as
+#: what casts them: the houses shade the road) and the shadow edges it throws are not read here
+MIN_ELEVATION = 10.0
+#: days of the year: where the sun passes at least MIN_ELEVATION high on fewer days than this
+#: (a sliver near the sunrise and sunset azimuths of midsummer, minutes a day), it is not taken
+#: to stand there
+MIN_DAYS = 30
+
+
+@dataclass(frozen=True)
+class SunSite:
+    """The place and the camera's compass heading of one photo."""
+
+    latitude: float  # degrees, north positive
+    heading: float  # degrees clockwise from north: where the vehicle (and the camera) points
+
+    @classmethod
+    def of(cls, vehicle) -> "SunSite | None":
+        """The site of a photo's vehicle file (:class:`~synthcompose.io.vehicle.Vehicle`), None
+        without one."""
+        return None if vehicle is None else cls(float(vehicle.latitude), float(vehicle.heading))
+
+    def compass(self, vehicle_azimuth: float) -> float:
+        """Compass azimuth (degrees) of a direction at ``vehicle_azimuth`` in the vehicle frame."""
+        return (self.heading - vehicle_azimuth) % 360.0
+
+    def elevations(self, vehicle_azimuth: float) -> np.ndarray:
+        """The sun's elevations (degrees) when it stands at ``vehicle_azimuth``, one per day of a
+        year on which it passes there at least :data:`MIN_ELEVATION` high; empty when it never
+        does."""
+        return elevations_at(self.latitude, self.compass(vehicle_azimuth))
+
+
+def declinations() -> np.ndarray:
+    """The sun's declination (degrees) on each day of a year (the cosine approximation)."""
+    day = np.arange(365)
+    return -OBLIQUITY * np.cos(2.0 * math.pi * (day + 10) / 365.0)
+
+
+@lru_cache(maxsize=64)
+def _paths(latitude: float) -> tuple[np.ndarray, np.ndarray]:
+    """(D, N) compass azimuths and elevations of the sun along each day's path (hour angles in
+    steps of 0.25 degrees, a minute of time), per day of :func:`declinations`."""
+    phi = math.radians(latitude)
+    dec = np.radians(declinations())[:, None]
+    h = np.radians(np.arange(-180.0, 180.01, 0.25))[None, :]
+    sin_e = math.sin(phi) * np.sin(dec) + math.cos(phi) * np.cos(dec) * np.cos(h)
+    e = np.arcsin(np.clip(sin_e, -1.0, 1.0))
+    # azimuth from north, clockwise: east in the morning (negative hour angle)
+    az = np.arctan2(-np.cos(dec) * np.sin(h), np.sin(dec) * math.cos(phi) - np.cos(dec) * np.cos(h) * math.sin(phi))
+    return np.degrees(az) % 360.0, np.degrees(e)
+
+
+def elevations_at(latitude: float, compass_azimuth: float) -> np.ndarray:
+    """The sun's elevations (degrees) at ``compass_azimuth`` on the days of a year it passes
+    there at least :data:`MIN_ELEVATION` high (the pass nearest that azimuth, within a degree);
+    empty where those are fewer than :data:`MIN_DAYS`."""
+    az, el = _paths(round(float(latitude), 1))
+    d = np.abs((az - compass_azimuth + 180.0) % 360.0 - 180.0)
+    up = el >= MIN_ELEVATION
+    d = np.where(up, d, np.inf)
+    i = np.argmin(d, axis=1)
+    rows = np.arange(len(az))
+    hit = d[rows, i] <= 1.0
+    if hit.sum() < MIN_DAYS:
+        return np.empty(0)
+    return el[rows[hit], i[hit]]
