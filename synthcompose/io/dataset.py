@@ -9,6 +9,7 @@ Layout (cityscapesScripts ``csHelpers``: file names are ``city_seq_frame_type.ex
     gtFine/<split>/<city>/<city>_<seq>_<frame>_gtFine_color.png         RGBA colours
     disparity/<split>/<city>/<city>_<seq>_<frame>_disparity.png         16-bit, d = (p-1)/256
     camera/<split>/<city>/<city>_<seq>_<frame>_camera.json              calibration
+    vehicle/<split>/<city>/<city>_<seq>_<frame>_vehicle.json            GPS heading (optional)
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from synthcompose.errors import InputError
 from synthcompose.labels import KNOWN_IDS
 
 from .files import decode_disparity, map_threads, read_json, read_png
+from .vehicle import Vehicle, read_vehicle
 
 #: ``city_seq_frame_leftImg8bit.png``: a city is any name without "_" (spaces and letters of any
 #: script too: "bad homburg", "münchen"), the sequence and frame numbers are ASCII digits
@@ -68,6 +70,7 @@ _KINDS = {
     "polygons": ("gtFine", "gtFine_polygons.json"),
     "disparity": ("disparity", "disparity.png"),
     "camera": ("camera", "camera.json"),
+    "vehicle": ("vehicle", "vehicle.json"),
     "record": ("synthcompose", "synthcompose.json"),
 }
 
@@ -184,6 +187,7 @@ class ImageSet:
     instance_ids : (H, W) int32, id*1000+k for instance classes, plain label id elsewhere
     disparity    : (H, W) uint16, Cityscapes encoding (p=0 invalid, d=(p-1)/256 px)
     camera       : the frame's own calibration
+    vehicle      : its GPS heading and position (Cityscapes' vehicle file), None without one
     """
 
     ident: ImageSetId
@@ -194,6 +198,7 @@ class ImageSet:
     camera: Camera
     labelled: bool = True  # False: no gtFine files, or labels that mark nothing (test split)
     right_rgb: np.ndarray | None = None  # (H, W, 3) uint8 sRGB, the right view, when read and there
+    vehicle: Vehicle | None = None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -207,7 +212,7 @@ MAX_DISPARITY_WIDTH_SHARE = 0.5
 
 
 #: the input files whose change makes a completed image set stale
-INPUT_KINDS = ("rgb", "right", "labelIds", "instanceIds", "disparity", "camera")
+INPUT_KINDS = ("rgb", "right", "labelIds", "instanceIds", "disparity", "camera", "vehicle")
 
 
 def input_fingerprint(root: Path, ident: ImageSetId) -> dict[str, list[int] | None]:
@@ -257,6 +262,7 @@ def read_image_set(root: Path, ident: ImageSetId, right: bool = False) -> ImageS
         if img.shape[:2] != (h, w):
             raise InputError(path, f"image is {img.shape[1]}x{img.shape[0]} but {rgb_path.name} is {w}x{h}")
     camera = Camera.read(ident.path(root, "camera"), w, h)
+    vehicle = read_vehicle(ident.path(root, "vehicle"))
     # Cityscapes' test split ships placeholder labels: nothing but ids 0-3 (unlabeled, ego
     # vehicle, rectification border, out of roi)
     labelled = labelled and bool((labels > 3).any())
@@ -265,7 +271,7 @@ def read_image_set(root: Path, ident: ImageSetId, right: bool = False) -> ImageS
         bad = np.arange(256)[~KNOWN_IDS][unknown]
         raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")
     check_disparity(disp_path, disparity, w)
-    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled, right_rgb)
+    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled, right_rgb, vehicle)
 
 
 # ------------------------------------------------------------ input polygons (gtFine)

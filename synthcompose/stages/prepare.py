@@ -14,6 +14,7 @@ from synthcompose.io.files import read_input_bytes
 from synthcompose.lighting import CameraMatch, LightEstimate, camera_noise_seed, estimate_lighting
 from synthcompose.lighting.camera_match import ToneReference
 from synthcompose.lighting.plan import completed_labels
+from synthcompose.lighting.solar import SunSite
 from synthcompose.placement.surfaces import Surfaces, frame_for
 
 from .options import ReadOptions
@@ -36,6 +37,7 @@ class Prepared:
     frame: Frame
     surfaces: Surfaces | None  # unlabelled image sets: the road and sidewalk found (placement/surfaces.py)
     rng: np.random.Generator  # the image set's randomness, after the geometry's draws
+    vehicle_json: bytes | None = None  # the vehicle file as read, written with the outputs
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,13 +56,14 @@ def prepare(o: ReadOptions, ident: ImageSetId, timings: Timings) -> Prepared:
     with timed(timings, "read"):
         image_set = read_image_set(o.dataset, ident, right=o.right_view)
         camera_json = read_input_bytes(ident.path(o.dataset, "camera"), 1 << 20)
+        vehicle_json = None if image_set.vehicle is None else read_input_bytes(ident.path(o.dataset, "vehicle"), 1 << 20)
     with timed(timings, "geometry"):
         cam = image_set.camera
         depth = disparity_to_depth(image_set.disparity, cam)
         rng = image_set_rng(o.seed, ident)
         # no labels (test split): road and sidewalk found from the disparity and the photo
         frame, surfaces = frame_for(image_set, depth)
-    return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng)
+    return Prepared(ident, image_set, camera_json, depth, frame, surfaces, rng, vehicle_json)
 
 
 def measure_light(o: ReadOptions, prep: Prepared, timings: Timings) -> PhotoLight:
@@ -72,7 +75,8 @@ def measure_light(o: ReadOptions, prep: Prepared, timings: Timings) -> PhotoLigh
             labels = frame.label_ids if frame.labelled else completed_labels(frame.label_ids, prep.depth,
                                                                               image_set.camera)
             estimate = estimate_lighting(image_set.rgb, frame.label_ids, prep.depth, image_set.camera,
-                                         labelled=frame.labelled, completed=labels)
+                                         labelled=frame.labelled, completed=labels,
+                                         site=SunSite.of(image_set.vehicle))
         if o.camera_match:
             match = CameraMatch.measure(image_set.rgb, camera_noise_seed(o.seed, prep.ident.key))
             reference = ToneReference.measure(image_set.rgb, image_set.instance_ids if image_set.labelled else None,

@@ -88,6 +88,7 @@ class Shaded:
     passes: Mapping[str, np.ndarray]  # name -> copy of the render pass (ROI-sized), for the passes asked for
     roi: tuple | None  # (x0, y0, width, height) of the render's ROI
     right_rgb: np.ndarray | None = None  # (H, W, 3) uint8: the right photo with the objects (stages.right)
+    vehicle_json: bytes | None = None  # the input's vehicle file, kept beside the camera's
 
 
 def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepared, light: PhotoLight, placed: Placed,
@@ -162,4 +163,5 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
                                                                           instances, match, tones))
     return Shaded(placed, tuple(ObjectLook(a, s, lk, None if c is None else MappingProxyType(c))
                                   for (a, s, lk), c in zip(looks, camera_looks)), record,
-                  composed, tuple(amodal), rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb)
+                  composed, tuple(amodal), rendered, cam, prep.camera_json, MappingProxyType(kept), roi, right_rgb,
+                  prep.vehicle_json)

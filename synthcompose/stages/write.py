@@ -94,7 +94,7 @@ def write_done(o: WriteOptions, ident: ImageSetId, s: Shaded, timings: Timings) 
     composed = s.composed
     check_visible(s)
     with timed(timings, "write"):
-        write_outputs(o.output, ident, composed, s.camera_json, s.right_rgb)
+        write_outputs(o.output, ident, composed, s.camera_json, s.right_rgb, s.vehicle_json)
         objects = object_records(s)
         h, w = composed.visible.shape
         record = s.record.with_(objects=objects, status=Status.DONE, views=("left", "right") if s.right_rgb is not None

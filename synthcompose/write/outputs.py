@@ -22,9 +22,9 @@ PNG_FILTER_OF = {"rgb": "paeth", "right": "paeth", "disparity": "paeth", "labelI
 
 
 def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_json: bytes,
-                  right_rgb: np.ndarray | None = None) -> list[Path]:
-    """Write the six Cityscapes files of the augmented set, and its right view when given;
-    returns their paths."""
+                  right_rgb: np.ndarray | None = None, vehicle_json: bytes | None = None) -> list[Path]:
+    """Write the six Cityscapes files of the augmented set, and its right view and vehicle file
+    when given; returns their paths."""
     files = {
         "rgb": lambda: composed.rgb,
         "labelIds": lambda: composed.label_ids,
@@ -44,11 +44,16 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
     cam = ident.path(out_root, "camera")
     write_bytes_atomic(cam, camera_json)
     written.append(cam)
+    if vehicle_json is not None:
+        vehicle = ident.path(out_root, "vehicle")
+        write_bytes_atomic(vehicle, vehicle_json)
+        written.append(vehicle)
     return written
 
 
 #: the kinds of file written per image set (dataset.ImageSetId.path), the record last
-WRITTEN_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "right", "polygons", "record")
+WRITTEN_KINDS = ("rgb", "labelIds", "instanceIds", "color", "disparity", "camera", "vehicle", "right", "polygons",
+                 "record")
 
 
 def output_paths(out_root: Path, ident: ImageSetId) -> list[Path]:

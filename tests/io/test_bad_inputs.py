@@ -201,8 +201,22 @@ def _polygons(text: str):
     return apply
 
 
+def _vehicle(text: str):
+    """Give the image set a vehicle file holding ``text``."""
+    def apply(root, ident):
+        path = ident.path(root, "vehicle")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        return path
+    return apply
+
+
 #: how to break an image set's JSON -> text its failure must hold after the file's name
 JSON_BREAKAGES = {
+    "a vehicle file whose heading is text": (_vehicle('{"gpsHeading": "east", "gpsLatitude": 51, "gpsLongitude": 7}'),
+                                             "gpsHeading is 'east': a number is needed"),
+    "a vehicle file at latitude 151": (_vehicle('{"gpsHeading": 90, "gpsLatitude": 151, "gpsLongitude": 7}'),
+                                       "gpsLatitude is 151: outside -90..90 degrees"),
     "integer too large for a float": (_number("fx", "1" + "0" * 400), "number at 'intrinsic/fx' is too large"),
     "exponent beyond a float": (_number("baseline", "1e999"), "number at 'extrinsic/baseline' is beyond the range"),
     "arrays thousands deep": (_number("u0", "[" * 5000 + "]" * 5000), "is nested more than 64 levels deep"),
