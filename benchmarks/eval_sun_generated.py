@@ -1,7 +1,10 @@
 """The light estimate's sun against the true one, on generated sunny streets (``make-sample
 --light sunny``: the sun across the street, through a gap in the houses on its side).
 
-    python benchmarks/eval_sun_generated.py [--count 12] [--seeds 3 5] [--size 2048x1024]
+    python benchmarks/eval_sun_generated.py [--count 12] [--seeds 3 5] [--size 2048x1024] [--no-site]
+
+The scenes' vehicle files put the sun where it can stand (``synthetic.light.sunny_vehicle``);
+``--no-site`` measures the estimate without them.
 
 Per scene: the true sun (azimuth / elevation, the generator's own draw), the estimate's, whether
 it was sure of the side, the angle between their axes (mod 180) and between their directions;
@@ -24,13 +27,15 @@ from evaluation.shadowlook import axis_angle  # noqa: E402
 from synthcompose.geometry.depth import disparity_to_depth  # noqa: E402
 from synthcompose.io.dataset import find_image_sets, read_image_set  # noqa: E402
 from synthcompose.lighting import estimate_lighting  # noqa: E402
+from synthcompose.lighting.solar import SunSite  # noqa: E402
 from synthcompose.placement.surfaces import frame_for  # noqa: E402
 from synthcompose.synthetic import make_sample  # noqa: E402
 from synthcompose.synthetic.light import sunny_light  # noqa: E402
 
 
-def run(seed: int, count: int, width: int, height: int, folder: Path) -> list[tuple]:
-    """(name, true az, true el, sunny, az, el, sure, axis off, direction off) per scene."""
+def run(seed: int, count: int, width: int, height: int, folder: Path, site: bool = True) -> list[tuple]:
+    """(name, true az, true el, sunny, az, el, sure, axis off, direction off) per scene;
+    ``site``: the estimate knows where the sun can stand (the scenes' vehicle files)."""
     root = folder / f"seed{seed}"
     make_sample(root, count=count, width=width, height=height, seed=seed, light="sunny")
     rows = []
@@ -39,7 +44,8 @@ def run(seed: int, count: int, width: int, height: int, folder: Path) -> list[tu
         s = read_image_set(root, ident)
         depth = disparity_to_depth(s.disparity, s.camera)
         frame, _ = frame_for(s, depth)
-        e = estimate_lighting(s.rgb, frame.label_ids, depth, s.camera, labelled=frame.labelled)
+        e = estimate_lighting(s.rgb, frame.label_ids, depth, s.camera, labelled=frame.labelled,
+                              site=SunSite.of(s.vehicle) if site else None)
         full = abs((e.sun_azimuth_deg - truth.sun_azimuth_deg + 180.0) % 360.0 - 180.0)
         rows.append((ident.name, truth.sun_azimuth_deg, truth.sun_elevation_deg, e.sunny, e.sun_azimuth_deg,
                      e.sun_elevation_deg, bool(e.cues.get("sun_direction_sure")),
@@ -52,12 +58,13 @@ def main(argv=None) -> int:
     ap.add_argument("--count", type=int, default=12)
     ap.add_argument("--seeds", type=int, nargs="+", default=[3, 5])
     ap.add_argument("--size", default="2048x1024")
+    ap.add_argument("--no-site", action="store_true", help="leave the vehicle files' site unread (the sun anywhere)")
     a = ap.parse_args(argv)
     width, height = (int(v) for v in a.size.split("x"))
     print(f"{'scene':<28}{'true az/el':>12}{'estimate':>12}{'sure':>6}{'axis off':>10}{'dir off':>9}")
     with tempfile.TemporaryDirectory(prefix="synthcompose-sungen-") as tmp:
         for seed in a.seeds:
-            rows = run(seed, a.count, width, height, Path(tmp))
+            rows = run(seed, a.count, width, height, Path(tmp), site=not a.no_site)
             for name, taz, tel, sunny, az, el, sure, axis, full in rows:
                 est = f"{az:.0f}/{el:.0f}" if sunny else "overcast"
                 print(f"{name:<28}{taz:>7.0f}/{tel:<4.0f}{est:>12}{'yes' if sure else 'no':>6}{axis:>10.0f}{full:>9.0f}")

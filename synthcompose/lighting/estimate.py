@@ -29,6 +29,7 @@ from .lines import along_line, find_shadow_line
 from .pairs import PairCue, pair_cue, pair_fit, pair_none
 from .plan import completed_labels
 from .shadows import Mixture, Occluders, ShadowCue, fit_mixture, shadow_cue, shadow_score
+from .solar import SunSite
 
 #: the sun's elevation (degrees, at least) when the ground's shadows show a sun but no cue its
 #: direction
@@ -40,14 +41,16 @@ UNCONFIRMED_STRENGTH = 0.3
 
 def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camera: Camera,
                       work_width: int = 700, labelled: bool = True,
-                      completed: np.ndarray | None = None) -> LightEstimate:
+                      completed: np.ndarray | None = None, site: SunSite | None = None) -> LightEstimate:
     """Estimate the light of one photo.
 
     rgb (H, W, 3) uint8 sRGB; label_ids (H, W) uint8 Cityscapes ids (or, ``labelled`` False,
     the surfaces found from the geometry: completed here with the level ground and what stands
     on it, :func:`~.plan.completed_labels`); depth (H, W) float metres, inf where unknown;
     ``camera`` the frame's camera; ``completed``: those completed labels where the caller has
-    them already. The completed labels serve the ground plan (:mod:`.plansun`) only: the other
+    them already; ``site``: where the photo was taken and which way the camera points (its
+    vehicle file, :class:`~.solar.SunSite`), which bounds where the sun can stand
+    (:func:`.plansun.direction`). The completed labels serve the ground plan (:mod:`.plansun`) only: the other
     cues keep the found surfaces (on the completed ones their two-level and shading cues called
     3 of 7 overcast street frames sunny, on the found ones 1).
     Deterministic: the same inputs give the same estimate.
@@ -74,9 +77,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
     plan_dir = None
     if ps.sunny:  # its casters: what stands, labelled or found from the depth
         cg = g if labelled else make_grid(rgb, completed, depth, camera, work_width, smooth)
-        plan_dir = plansun.direction(ps, caster_cue(cg, camera), c.evidence)
+        plan_dir = plansun.direction(ps, caster_cue(cg, camera), c.evidence, site)
     if plan_dir is not None:
-        _plan_sun(c, cues, sun, ps, plan_dir)
+        _plan_sun(c, cues, sun, ps, plan_dir, site)
     delta = _shadow_step(c, sun, ps, plan_dir)
     cues["ground_shadow_core_log_ratio"] = delta
     if sun.sunny and not cues["sun_direction_sure"] and not sun.one_level:
@@ -84,6 +87,13 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         # caster its side and height): a high sun, whose shadow falls short and under the
         # object, is the least wrong guess (a shadow thrown the wrong way is seen)
         sun.el = max(sun.el, UNSURE_ELEVATION)
+    if sun.sunny and site is not None:  # never higher than the sun stands there on any day
+        there = site.elevations(sun.az)
+        if len(there):
+            sun.el = float(np.clip(sun.el, there.min(), there.max()))
+        cues["site"] = {"latitude": site.latitude, "heading": site.heading,
+                        "compass_azimuth": round(site.compass(sun.az), 1),
+                        "elevations": [round(float(there.min()), 1), round(float(there.max()), 1)] if len(there) else None}
     sun_fraction = float(np.clip(1.0 - math.exp(delta), 0.0, 0.95)) if sun.sunny else 0.0
     confidence = sun.strength if sun.sunny else ((1.0 - sun.strength) if c.mix is not None else 0.3)
     cues["shadow_evidence"] = sun.strength
@@ -276,19 +286,21 @@ def _other_suns(g, camera: Camera, c: _Cues, coarse: list, cues: dict, sun: _Sun
     cues["shaded_ground_sun"] = sun.shaded is not None
 
 
-def _plan_sun(c: _Cues, cues: dict, sun: _Sun, ps, plan_dir) -> None:
+def _plan_sun(c: _Cues, cues: dict, sun: _Sun, ps, plan_dir, site: SunSite | None) -> None:
     """The plan's edges run along the sun's azimuth and along the street (roof lines, car
     sides): where the other cues already found a sun and its direction (two ground levels and
     the shading pairs, the lit or shaded ground, the casters), the plan's direction replaces
-    theirs only if it explains the shading and the shadows as well."""
-    found = cues["sun_direction_sure"] or sun.one_level
+    theirs only if it explains the shading and the shadows as well, or if theirs is where the
+    sun never stands at the photo's site."""
+    found = (cues["sun_direction_sure"] or sun.one_level) and (site is None or len(site.elevations(sun.az)) > 0)
     shading_sun = bool(sun.sunny and found) and c.evidence(sun.az, sun.el)[0] >= c.evidence(*plan_dir[:2])[0]
     sun.sunny, sun.lit_ground, sun.cast, sun.shaded = True, None, None, None
     cues["plan_direction"] = not shading_sun
     if not shading_sun:
         sun.az, sun.el, sun.info = plan_dir
         cues.update(sun.info)
-        cues["sun_direction_sure"] = sun.info["caster_agreement"] > 0
+        told = sun.info.get("site", {}).get("side_told", False)
+        cues["sun_direction_sure"] = bool(sun.info["caster_agreement"] > 0 or told)
     sun.strength = plansun.strength(ps)
 
 

@@ -190,7 +190,7 @@ DEFAULT_ELEVATION = 45.0
 SIDE_MARGIN = 1.5
 
 
-def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
+def direction(ps: PlanSun, casters, evidence, site=None) -> tuple[float, float, dict]:
     """The sun's (azimuth, elevation, info) along the strongest direction of the edges (the
     first of ``ps.azimuths``): on each side of that axis, within 6 degrees of it, at
     :data:`ELEVATIONS`, where the casters in view throw their shadows onto dark ground
@@ -199,6 +199,11 @@ def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
     (score, info)`` (the shading pairs and the predicted shadows) prefers, at the casters'
     elevation there or :data:`DEFAULT_ELEVATION`. ``info`` is evidence's at the chosen
     direction, with the casters' agreement.
+
+    ``site`` (:class:`~.solar.SunSite`, from the photo's vehicle file, or None): where the sun
+    can stand. A side the sun never reaches at that latitude (the north, seen from Germany) is
+    not taken; the elevations tried on a side are those the sun has there on some day of the
+    year, and without a caster to tell, the elevation is their median (``info["site"]``).
 
     The casters tell the side and the height along that direction, never another one: their
     agreement is a mean over points landing on darker or brighter ground than its kind's median,
@@ -214,27 +219,68 @@ def direction(ps: PlanSun, casters, evidence) -> tuple[float, float, dict]:
     if not ps.azimuths:
         return 0.0, DEFAULT_ELEVATION, dict(evidence(0.0, DEFAULT_ELEVATION)[1], caster_agreement=0.0)
     phi = ps.azimuths[0][0]
-    # per side of the axis: the casters' best direction near it (agreement, azimuth, elevation)
-    best = []
-    for base in (phi, phi + 180.0):
-        pick = (0.0, base % 360.0, DEFAULT_ELEVATION)
-        if casters is not None:
-            az = np.array([(base + d) % 360.0 for d in (-6.0, -3.0, 0.0, 3.0, 6.0) for _ in ELEVATIONS])
-            el = np.array([e for _ in range(5) for e in ELEVATIONS])
-            agree, dark, _ = casters.score(az, el)
-            i = int(np.argmax(agree))
-            if agree[i] > 0 and dark[i] >= 10:
-                pick = (float(agree[i]), float(az[i]), float(el[i]))
-        best.append(pick)
-    (a0, *_), (a1, *_) = best
-    if max(a0, a1) > 0 and max(a0, a1) >= SIDE_MARGIN * max(min(a0, a1), 0.0):
-        chosen = best[0] if a0 >= a1 else best[1]
+    sides = [_Side.of(base, site) for base in (phi, phi + 180.0)]
+    if not any(s.possible for s in sides):  # the site rules out both: it is not believed
+        site, sides = None, [_Side.of(base, None) for base in (phi, phi + 180.0)]
+    sides = [s for s in sides if s.possible]
+    best = [s.casters_pick(casters) for s in sides]
+    agree = [b[0] for b in best]
+    if len(best) == 1:
+        chosen = best[0]
+    elif max(agree) > 0 and max(agree) >= SIDE_MARGIN * max(min(agree), 0.0):
+        chosen = best[int(np.argmax(agree))]
     else:  # the casters do not tell the side: the shading pairs and the predicted shadows do
         chosen = max(best, key=lambda b: evidence(b[1], DEFAULT_ELEVATION)[0])
     agreement, found = chosen[0], (chosen[1], chosen[2])
     info = dict(evidence(*found)[1])
     info["caster_agreement"] = agreement
+    if site is not None:
+        side = sides[best.index(chosen)]
+        info["site"] = {"compass_azimuth": round(site.compass(found[0]), 1),
+                        "elevations": [round(side.low, 1), round(side.high, 1)] if side.possible else None,
+                        "side_told": len(sides) == 1}
     return found[0], found[1], info
+
+
+@dataclass(frozen=True)
+class _Side:
+    """One side of the edges' axis: its azimuth (vehicle frame), and the elevations the sun has
+    there (all of :data:`ELEVATIONS` without a site; the casters turn it only where the sun
+    stands too)."""
+
+    base: float
+    possible: bool
+    low: float
+    high: float
+    typical: float
+    site: object = None
+
+    @classmethod
+    def of(cls, base: float, site) -> "_Side":
+        if site is None:
+            return cls(base % 360.0, True, ELEVATIONS[0], ELEVATIONS[-1], DEFAULT_ELEVATION)
+        e = site.elevations(base)
+        if not len(e):
+            return cls(base % 360.0, False, 0.0, 0.0, DEFAULT_ELEVATION, site)
+        return cls(base % 360.0, True, float(e.min()), float(e.max()), float(np.median(e)), site)
+
+    def casters_pick(self, casters) -> tuple[float, float, float]:
+        """(agreement, azimuth, elevation): the casters' best direction within 6 degrees of the
+        side, at the elevations the sun has there; (0, the side, its typical elevation) where
+        they agree with none."""
+        pick = (0.0, self.base, self.typical)
+        els = [e for e in ELEVATIONS if self.low - 2.5 <= e <= self.high + 2.5]
+        if casters is None or not els:
+            return pick
+        turns = [d for d in (-6.0, -3.0, 0.0, 3.0, 6.0)
+                 if self.site is None or d == 0.0 or len(self.site.elevations(self.base + d))]
+        az = np.array([(self.base + d) % 360.0 for d in turns for _ in els])
+        el = np.array([min(max(e, self.low), self.high) for _ in turns for e in els])
+        agree, dark, _ = casters.score(az, el)
+        i = int(np.argmax(agree))
+        if agree[i] > 0 and dark[i] >= 10:
+            pick = (float(agree[i]), float(az[i]), float(el[i]))
+        return pick
 
 
 def strength(ps: PlanSun) -> float:

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synthcompose.lighting.solar import elevations_at
+
 from .scene import StreetScene, Vec3
 
 
@@ -229,3 +231,24 @@ def sunny_light(rng: np.random.Generator) -> SceneLight:
                       sun_elevation_deg=float(rng.uniform(*SUNNY_ELEVATION)),
                       sun_fraction=float(rng.uniform(*SUNNY_FRACTION)), sky_tint=SUNNY_SKY_TINT,
                       sun_tint=SUNNY_SUN_TINT, ground_ratio=0.3, shadows=True, sun_radius_deg=SUN_RADIUS_DEG)
+
+
+#: the latitude (degrees north) of the generated sunny frames' vehicle files: Cityscapes' cities
+#: lie at 47.4-54.3
+SITE_LATITUDE = 50.5
+
+
+def sunny_vehicle(light: SceneLight, rng: np.random.Generator) -> dict:
+    """A vehicle file (Cityscapes' ``vehicle.json`` fields) for a frame lit by ``light``: at
+    :data:`SITE_LATITUDE`, heading where the sun, at ``light``'s azimuth in the vehicle frame and
+    its elevation, stands at a compass azimuth it has on some day of the year (drawn among
+    them)."""
+    el = light.sun_elevation_deg
+    fits = []
+    for compass in range(360):
+        e = elevations_at(SITE_LATITUDE, float(compass))
+        if len(e) and e.min() - 0.5 <= el <= e.max() + 0.5:
+            fits.append(compass)
+    compass = float(rng.choice(fits))
+    return {"gpsHeading": round((compass + light.sun_azimuth_deg) % 360.0, 2), "gpsLatitude": SITE_LATITUDE,
+            "gpsLongitude": 7.0, "outsideTemperature": 20.0, "speed": 8.0, "yawRate": 0.0}

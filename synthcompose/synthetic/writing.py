@@ -11,7 +11,7 @@ from synthcompose.labels import KNOWN_IDS, colorize
 
 from .frame import render_scene
 from .layout import random_scene
-from .light import sunny_light
+from .light import sunny_light, sunny_vehicle
 from .scene import StreetScene
 from .streets import STREET_KINDS
 from .sunlit import open_to_the_sun
@@ -63,7 +63,9 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
     ``right``: the right view of the stereo pair too (rightImg8bit); ``light``: one of
     :data:`LIGHTS` (a sunny frame's light is drawn from its own generator, ``[seed, i, 1]``: the
     layout is the same as the default's but for a gap in the houses on the sun's side,
-    :func:`~.sunlit.open_to_the_sun`, drawn from ``[seed, i, 2]``). ``streets``: None draws the streets as earlier
+    :func:`~.sunlit.open_to_the_sun`, drawn from ``[seed, i, 2]``, and a vehicle file whose
+    heading and latitude put the sun where it can stand, :func:`~.light.sunny_vehicle`, from
+    ``[seed, i, 3]``). ``streets``: None draws the streets as earlier
     versions; ``"traffic"`` lays frame i out as street kind ``i mod 5`` of
     :data:`.streets.STREET_KINDS` (two-way, one-way, angled and perpendicular bays, a zebra).
 
@@ -86,5 +88,7 @@ def make_sample(out_root: Path, count: int = 3, width: int = 2048, height: int =
             scene = open_to_the_sun(scene, np.random.default_rng([seed, i, 2]))
         ident = ImageSetId(split, city, f"{0:06d}", f"{i:06d}")
         write_image_set(out_root, ident, scene, render_scene(scene, stereo=stereo, photo=photo, right=right))
+        if sun is not None:  # where the sun stands as it does: its own numbers
+            write_json(ident.path(out_root, "vehicle"), sunny_vehicle(sun, np.random.default_rng([seed, i, 3])))
         idents.append(ident)
     return idents

@@ -10,6 +10,7 @@ from evaluation.shadowlook import read_sun_labels
 from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.io.dataset import find_image_sets, read_image_set
 from synthcompose.lighting import estimate_lighting
+from synthcompose.lighting.solar import SunSite
 from synthcompose.placement.surfaces import frame_for
 
 from ..real_root import STREETS, SUN_LABELS, needs_streets
@@ -29,7 +30,8 @@ def test_sunny_street_frames_are_called_sunny_and_overcast_ones_not():
         s = read_image_set(root, ident)
         depth = disparity_to_depth(s.disparity, s.camera)
         frame, _ = frame_for(s, depth)
-        est = estimate_lighting(s.rgb, frame.label_ids, depth, s.camera, labelled=frame.labelled)
+        est = estimate_lighting(s.rgb, frame.label_ids, depth, s.camera, labelled=frame.labelled,
+                               site=SunSite.of(s.vehicle))
         called[kind].append(est.sunny)
     assert called["sunny"] and called["overcast"]
     assert sum(called["sunny"]) >= SUNNY_FOUND_MIN * len(called["sunny"]), called

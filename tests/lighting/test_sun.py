@@ -18,6 +18,7 @@ from synthcompose.colour import SRGB8_TO_LINEAR, linear_to_srgb
 from synthcompose.geometry.depth import disparity_to_depth
 from synthcompose.io.dataset import read_image_set
 from synthcompose.lighting import estimate_lighting, plansun
+from synthcompose.lighting.solar import SunSite
 from synthcompose.models.load import load_model
 from synthcompose.render import Lighting, Renderer, RenderObject
 from synthcompose.synthetic import make_sample
@@ -147,23 +148,48 @@ def test_a_sunny_generated_street_is_called_sunny_along_its_sun_and_an_overcast_
             assert shadowlook.axis_angle(est.sun_azimuth_deg, truth.sun_azimuth_deg) <= SUN_AZIMUTH_AXIS_DEG
 
 
-def test_the_casters_shadows_tell_a_low_suns_side_and_height(tmp_path):
+@pytest.fixture(scope="module")
+def sunny_streets(tmp_path_factory):
+    """Nine generated sunny streets (seed 3, 1024x512), each with its vehicle file: (root, ids)."""
+    root = tmp_path_factory.mktemp("sunny")
+    return root, make_sample(root, count=9, width=1024, height=512, seed=3, light="sunny")
+
+
+def test_the_casters_shadows_tell_a_low_suns_side_and_height(sunny_streets):
     """Generated streets with a low sun: the shadows of what stands land on the ground the
     casters' cue reads - every ground cell but a kerb's face, most of which have no normal on
     stereo - so the sun's height is told, not put at the fallback's 70 degrees (a short shadow
     under the car beside the houses' long ones: scene 0, 29 degrees); and the side of the edges'
     axis is the casters' where they agree clearly better with it (scene 8, whose shadows' axis
     both sides of the sun fit: the side with the sun, not its mirror)."""
-    idents = make_sample(tmp_path, count=9, width=1024, height=512, seed=3, light="sunny")
+    root, idents = sunny_streets
     for i in (0, 8):
         truth = sunny_light(np.random.default_rng([3, i, 1]))
-        s = read_image_set(tmp_path, idents[i])
+        s = read_image_set(root, idents[i])
         est = estimate_lighting(s.rgb, s.label_ids, disparity_to_depth(s.disparity, s.camera), s.camera)
         off = abs((est.sun_azimuth_deg - truth.sun_azimuth_deg + 180.0) % 360.0 - 180.0)
         assert est.sunny and est.cues["sun_direction_sure"] and off <= SUN_AZIMUTH_AXIS_DEG, (i, est.cues)
         if i == 0:
             assert abs(est.sun_elevation_deg - truth.sun_elevation_deg) <= SUN_ELEVATION_DEG, \
                 (est.sun_elevation_deg, truth.sun_elevation_deg)
+
+
+def test_where_the_sun_can_stand_tells_the_side_the_casters_get_wrong(sunny_streets):
+    """Scene 6 (the sun 35 degrees high, ahead-left; its vehicle file puts the camera at 50.5
+    degrees north, heading where that sun stands in the east-south-east): the casters agree
+    better with the mirrored sun, which would stand in the west-north-west, where the sun never
+    stands 10 degrees high on a month of days at that latitude. Knowing the site, the estimate
+    takes the side the sun can stand on; not knowing it, the mirrored one."""
+    root, idents = sunny_streets
+    truth = sunny_light(np.random.default_rng([3, 6, 1]))
+    s = read_image_set(root, idents[6])
+    depth = disparity_to_depth(s.disparity, s.camera)
+    off = []
+    for site in (None, SunSite.of(s.vehicle)):
+        est = estimate_lighting(s.rgb, s.label_ids, depth, s.camera, site=site)
+        off.append(abs((est.sun_azimuth_deg - truth.sun_azimuth_deg + 180.0) % 360.0 - 180.0))
+    assert off[0] > 90.0 and off[1] <= SUN_AZIMUTH_AXIS_DEG, off
+    assert est.sun_elevation_deg <= 90.0 - 50.5 + 23.44 and est.cues["site"]["elevations"] is not None
 
 
 def test_the_outline_measure_sees_a_receivers_box_and_not_a_smooth_shadow():
