@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
@@ -61,31 +60,24 @@ def declinations() -> np.ndarray:
     return -OBLIQUITY * np.cos(2.0 * math.pi * (day + 10) / 365.0)
 
 
-@lru_cache(maxsize=64)
-def _paths(latitude: float) -> tuple[np.ndarray, np.ndarray]:
-    """(D, N) compass azimuths and elevations of the sun along each day's path (hour angles in
-    steps of 0.25 degrees, a minute of time), per day of :func:`declinations`."""
-    phi = math.radians(latitude)
-    dec = np.radians(declinations())[:, None]
-    h = np.radians(np.arange(-180.0, 180.01, 0.25))[None, :]
-    sin_e = math.sin(phi) * np.sin(dec) + math.cos(phi) * np.cos(dec) * np.cos(h)
-    e = np.arcsin(np.clip(sin_e, -1.0, 1.0))
-    # azimuth from north, clockwise: east in the morning (negative hour angle)
-    az = np.arctan2(-np.cos(dec) * np.sin(h), np.sin(dec) * math.cos(phi) - np.cos(dec) * np.cos(h) * math.sin(phi))
-    return np.degrees(az) % 360.0, np.degrees(e)
-
-
 def elevations_at(latitude: float, compass_azimuth: float) -> np.ndarray:
     """The sun's elevations (degrees) at ``compass_azimuth`` on the days of a year it passes
-    there at least :data:`MIN_ELEVATION` high (the pass nearest that azimuth, within a degree);
-    empty where those are fewer than :data:`MIN_DAYS`."""
-    az, el = _paths(round(float(latitude), 1))
-    d = np.abs((az - compass_azimuth + 180.0) % 360.0 - 180.0)
-    up = el >= MIN_ELEVATION
-    d = np.where(up, d, np.inf)
-    i = np.argmin(d, axis=1)
-    rows = np.arange(len(az))
-    hit = d[rows, i] <= 1.0
-    if hit.sum() < MIN_DAYS:
-        return np.empty(0)
-    return el[rows[hit], i[hit]]
+    there at least :data:`MIN_ELEVATION` high; empty where those are fewer than
+    :data:`MIN_DAYS`.
+
+    On the celestial sphere, sin(declination) = sin(latitude) sin(e) + cos(latitude) cos(e)
+    cos(azimuth): for a day's declination, a sin e + b cos e = c, whose solution in [0, 90]
+    degrees, e = asin(c / R) - psi or 180 - asin(c / R) - psi (R, psi the amplitude and phase
+    of a sin e + b cos e), is where that day's path crosses the azimuth (at most once a day
+    outside the tropics)."""
+    phi, az = math.radians(latitude), math.radians(compass_azimuth)
+    a, b = math.sin(phi), math.cos(phi) * math.cos(az)
+    amplitude, psi = math.hypot(a, b), math.atan2(b, a)
+    c = np.sin(np.radians(_DECLINATIONS)) / amplitude
+    c = c[np.abs(c) <= 1.0]
+    roots = np.degrees(np.concatenate([np.arcsin(c) - psi, math.pi - np.arcsin(c) - psi]))
+    e = roots[(roots >= MIN_ELEVATION) & (roots <= 90.0)]
+    return e if len(e) >= MIN_DAYS else np.empty(0)
+
+
+_DECLINATIONS = declinations()
