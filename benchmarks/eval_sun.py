@@ -16,7 +16,10 @@ with the bundled manifest's objects (cars weighed up), estimated light and camer
 * per inserted car at least 150 px wide: ``under`` (shadowlook.under on the car as annotated,
   the ground 2-8 px under its lowest pixel over 20-40 px under), ``outline`` (straight lines of
   the ratio output / input near it, over its width) and roughness (look.shadow_blotchiness);
-  the same ``under`` for the frame's real cars where labels (or --truth) give them;
+  the same ``under`` for the frame's real cars where labels (or --truth) give them; and the
+  outline and roughness of the sky's shadow alone (``sky outline``, ``sky rough``: on frames
+  called sunny, measured on the sunless twin, so that the sun shadow's own edges, the caster's
+  shape, are left out; elsewhere the same as outline and rough);
 * totals last.
 
     python benchmarks/eval_sun.py ROOT [ROOT ...] [--labels sun-labels.txt] [--seeds 1 2] [--truth LABELLED]
@@ -121,8 +124,12 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
             twin = read_image_set(sunless, ident)
         feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
         fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan) if twin is not None else None
+        # the sky's shadow alone (the sunless twin where the frame is sunny): the receiver's own
+        # outline and blotches, without the sun shadow's edges (the caster's shape)
+        sky_out = res.rgb if twin is None else twin.rgb
+        sky_outlines = outlines if twin is None else shadowlook.outline(src.rgb, twin.rgb, masks)
         angles, angles_all = [], []
-        for k, (obj, m, line) in enumerate(zip(rec["objects"], masks, outlines)):
+        for k, (obj, m, line, sky_line) in enumerate(zip(rec["objects"], masks, outlines, sky_outlines)):
             angle = None
             if sunny and real_dir is not None:
                 d = shadowlook.shadow_orientation(src.rgb, res.rgb, m, obj["pose"]["vehicle"]["position_m"],
@@ -141,7 +148,8 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
             cars.append({"frame": ident.name, "distance": obj["distance_m"], "width": width,
                          "under": shadowlook.under(res.rgb, m, ground & ~(objects & ~m), objects),
                          "outline": line, "rough": look.shadow_blotchiness(src.rgb, res.rgb, vis, objects),
-                         "angle": angle, "sunny": sunny})
+                         "angle": angle, "sunny": sunny, "sky_outline": sky_line,
+                         "sky_rough": look.shadow_blotchiness(src.rgb, sky_out, vis, objects)})
         if ref is not None:
             for inst in np.unique(ref.instance_ids[ref.instance_ids // 1000 == CAR]):
                 m = ref.instance_ids == inst
@@ -168,11 +176,12 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
               f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
               f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
               f"{' '.join(f'{a:.0f}' for a in ang)} {mark}")
-    print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}")
+    print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}"
+          f" {'sky outline':>11} {'sky rough':>9}")
     for c in cars:
         fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
         print(f"{c['frame']:<28} {c['distance']:5.1f} {c['width']:5d} {fmt(c['under']):>6} {fmt(c['outline']):>7} "
-              f"{fmt(c['rough']):>6} {fmt(c['angle'], 0):>6}")
+              f"{fmt(c['rough']):>6} {fmt(c['angle'], 0):>6} {fmt(c.get('sky_outline')):>11} {fmt(c.get('sky_rough')):>9}")
     sunny_l = [f for f in seen.values() if f["label"] == "sunny"]
     over_l = [f for f in seen.values() if f["label"] == "overcast"]
     angles = [a for f in frames if f["sunny"] for a in f["angles"]]
@@ -181,6 +190,8 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
     real_u = [r["under"] for r in real if r["under"] is not None]
     outl = [c["outline"] for c in cars if c["outline"] is not None]
     rough = [c["rough"] for c in cars if c["rough"] is not None]
+    sky_outl = [c["sky_outline"] for c in cars if c.get("sky_outline") is not None]
+    sky_rough = [c["sky_rough"] for c in cars if c.get("sky_rough") is not None]
     out = {
         "sunny_called_sunny": f"{sum(f['sunny'] for f in sunny_l)}/{len(sunny_l)}",
         "overcast_called_sunny": f"{sum(f['sunny'] for f in over_l)}/{len(over_l)}",
@@ -190,6 +201,8 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         "under_inserted": _summary(unders), "under_real": _summary(real_u),
         "outline_over_0.2": f"{sum(v > 0.2 for v in outl)}/{len(outl)}",
         "rough_le_0.3": f"{sum(v <= 0.3 for v in rough)}/{len(rough)}",
+        "sky_shadow_outline_over_0.2": f"{sum(v > 0.2 for v in sky_outl)}/{len(sky_outl)}",
+        "sky_shadow_rough_le_0.3": f"{sum(v <= 0.3 for v in sky_rough)}/{len(sky_rough)}",
     }
     print("\ntotals:")
     for k, v in out.items():
