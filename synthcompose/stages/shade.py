@@ -16,7 +16,7 @@ import numpy as np
 from synthcompose.camera import Camera
 from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import Composed, Composer, SceneLayers, label_mask
-from synthcompose.geometry.depth import Frame, occluder_depth
+from synthcompose.geometry.depth import Frame, occluder_fill
 from synthcompose.io.files import DISPARITY_SCALE
 from synthcompose.labels import label_id
 from synthcompose.lighting.camera_match import object_tones
@@ -52,15 +52,19 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
     return tuple(float(c) for c in np.median(lin, axis=0))
 
 
-def occluders_in_rows(depth: np.ndarray, bands: list[slice]) -> np.ndarray:
-    """:func:`~synthcompose.geometry.depth.occluder_depth` of ``depth`` in the rows from the first of
-    ``bands`` to the last (its holes are filled along rows: the same values there as over the
-    whole frame), inf in the others, which the compose does not read."""
-    out = np.full(depth.shape, np.inf, np.float32)
+def occluders_in_rows(depth: np.ndarray, bands: list[slice], ground: np.ndarray,
+                      unlabelled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~synthcompose.geometry.depth.occluder_fill` of ``depth`` and ``ground`` in the rows
+    from the first of ``bands`` to the last (holes are filled along rows: the same values there
+    as over the whole frame), a hole counted as ground only where no label names it
+    (``unlabelled``: found surfaces leave the matcher's holes unnamed); elsewhere depth inf and
+    ``ground`` as given (the compose does not read them)."""
+    out, ground = np.full(depth.shape, np.inf, np.float32), ground.copy()
     if bands:
         r0, r1 = min(b.start for b in bands), max(b.stop for b in bands)
-        out[r0:r1] = occluder_depth(depth[r0:r1])
-    return out
+        out[r0:r1], filled = occluder_fill(depth[r0:r1], ground[r0:r1])
+        ground[r0:r1] |= filled & unlabelled[r0:r1]
+    return out, ground
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,10 +133,11 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
         # the rows the compose passes read: the left region of interest's and the right one's
         rois = [passes.roi if passes is not None else None,
                 roi_for(cam.right_camera(), objects, lighting) if image_set.right_rgb is not None else None]
+        occluders, ground = occluders_in_rows(prep.depth, [r.slices[0] for r in rois if r is not None],
+                                              label_mask(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
+                                              frame.label_ids == 0)
         scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
-                            occluders_in_rows(prep.depth, [r.slices[0] for r in rois if r is not None]),
-                            cam.baseline * cam.fx * DISPARITY_SCALE,
-                            ground=label_mask(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
+                            occluders, cam.baseline * cam.fx * DISPARITY_SCALE, ground=ground,
                             ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
         classes = [label_id(o.spec.class_name) for o in placed.objects]
         tones, camera_looks = None, [None] * len(placed.objects)

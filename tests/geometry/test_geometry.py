@@ -87,3 +87,17 @@ def test_holes_are_filled_for_occlusion_by_the_farther_neighbour():
     out = occluder_depth(np.stack([row, row]))
     np.testing.assert_array_equal(out[0], [inf, 30, 30, 30, 30, 5, 5, 5, 30, inf])
     assert occluder_depth(np.full((2, 3), 4.0, np.float32)).tolist() == [[4.0] * 3] * 2
+
+
+def test_a_hole_filled_from_the_ground_counts_as_ground():
+    """The road (30 m) with a hole beside a near car (5 m): the hole takes the road's depth and
+    is ground for the compose (the ground's noise band then keeps an inserted shadow over it);
+    the hole inside the car is the car's, not ground; one open to the border stays unknown."""
+    from synthcompose.geometry.depth import occluder_fill
+
+    inf = np.inf
+    row = np.array([inf, 30, 30, inf, inf, 5, inf, 5, 30, inf], np.float32)
+    road = np.array([0, 1, 1, 0, 0, 0, 0, 0, 1, 0], bool)
+    depth, ground = occluder_fill(np.stack([row, row]), np.stack([road, road]))
+    np.testing.assert_array_equal(depth[0], [inf, 30, 30, 30, 30, 5, 5, 5, 30, inf])
+    np.testing.assert_array_equal(ground[0], [0, 1, 1, 1, 1, 0, 0, 0, 1, 0])
