@@ -237,7 +237,7 @@ def direction(ps: PlanSun, casters, evidence, site=None) -> tuple[float, float, 
     if site is not None:
         side = sides[best.index(chosen)]
         info["site"] = {"compass_azimuth": round(site.compass(found[0]), 1),
-                        "elevations": [round(side.low, 1), round(side.high, 1)] if side.possible else None,
+                        "elevations": [round(side.low, 1), round(side.high, 1)],
                         "side_told": len(sides) == 1}
     return found[0], found[1], info
 
