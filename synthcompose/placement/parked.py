@@ -35,6 +35,9 @@ ROW_REACH, ROW_BEYOND = 6.0, 1.0
 MIN_ROW = 6.0
 #: deeper than this (metres from the kerb), a row stands in bays
 PARALLEL_DEPTH = 3.0
+#: a parked car's nearest point stands within this of the kerb (metres: its gap to the kerb,
+#: a door's mirror, the stereo's spread at 40 m)
+KERB_TOUCH = 1.2
 #: vehicle bodies on a frame without labels: this high above the road, metres
 BODY = (0.4, 1.5)
 
@@ -97,7 +100,15 @@ def _rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
         inward = -side * (s - kerb)  # metres from the kerb into the carriageway
         # on a frame without labels a wall or a hedge beyond the kerb stands as high as a car
         beyond = ROW_BEYOND if frame.labelled else -0.2
-        sel = (inward >= -beyond) & (inward <= ROW_REACH) & (a >= 5.0) & (a <= 40.0)
+        # a car parked along this kerb stands on the carriageway: points beyond the other kerb
+        # (a car park, the other side's row seen on its kerb) are no car of this row
+        reach = min(ROW_REACH, ego.left - ego.right)
+        sel = (inward >= -beyond) & (inward <= reach) & (a >= 5.0) & (a <= 40.0)
+        if sel.sum() < 10:
+            continue
+        # the row is the blobs that reach the kerb: a car driving in the lane beside the row
+        # (or the bus beyond it) is a blob of its own farther in, and no parked car
+        sel[sel] = _at_kerb(a[sel], s[sel], inward[sel])
         if sel.sum() < 10:
             continue
         bins = a[sel].astype(np.int64)
@@ -126,6 +137,21 @@ def make_grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np
     grid = np.zeros((int(i.max()) + 1, int(j.max()) + 1), np.uint8)
     grid[i, j] = 1
     return cv2.connectedComponents(grid, connectivity=8)
+
+
+def _at_kerb(a: np.ndarray, s: np.ndarray, inward: np.ndarray) -> np.ndarray:
+    """(N,) bool: the points of the blobs (make_grid's, at least 12 cells) whose nearest point
+    stands within KERB_TOUCH of the kerb (``inward``: metres from it into the carriageway)."""
+    n, comp = make_grid(a, s)
+    i = ((a - a.min()) / 0.25).astype(np.int64)
+    j = ((s - s.min()) / 0.25).astype(np.int64)
+    label = comp[i, j]
+    cells = np.bincount(comp.ravel(), minlength=n)
+    nearest = np.full(n, np.inf)
+    np.minimum.at(nearest, label, inward)
+    keep = (cells >= 12) & (nearest <= KERB_TOUCH)
+    keep[0] = False
+    return keep[label]
 
 
 def _blobs(a: np.ndarray, s: np.ndarray) -> int:
