@@ -25,7 +25,7 @@ import numpy as np
 from synthcompose.geometry.depth import Frame
 
 from .parked import parked_rows
-from .street import Carriageway, Street
+from .street import EGO_HALF_LANE, Carriageway, Street
 from .street_lines import SOLID_RUN
 
 #: narrower than this, a space between two markings is no lane (metres)
@@ -35,6 +35,8 @@ MIN_LANE = 2.3
 STRIP, MIN_MOVING = (1.9, 2.9), 2.5
 #: an unmarked lane along a kerb this wide has room for a parked row of this width (metres)
 WIDE, ROW_WIDTH = 4.3, 2.2
+#: a parking strip keeps this far from the ego vehicle's path (metres: half its width and a little)
+EGO_CLEAR = 1.0
 #: a moving lane is at most this wide; wider, it is split into lanes at least LANE_MIN_SPLIT
 #: wide (metres)
 LANE_WIDTH, LANE_MIN_SPLIT = 3.75, 2.75
@@ -90,7 +92,9 @@ def sun_direction_of(cw: Carriageway, s: float, hand: int) -> int:
 
 def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: float = 0.0) -> list[Lane]:
     # boundaries: (offset, kind, cover); the kerbs and the centre line are never dropped
-    bounds = [(cw.right, "kerb", math.inf)] + [(m.offset, m.kind, m.cover) for m in cw.markings]
+    # a line under the ego vehicle's own path is no lane line: it does not drive on one
+    marks = [m for m in cw.markings if cw.side != 0 or abs(m.offset - ego_s) > EGO_HALF_LANE]
+    bounds = [(cw.right, "kerb", math.inf)] + [(m.offset, m.kind, m.cover) for m in marks]
     bounds += [(cw.left, "kerb", math.inf)]
     if cw.centre is not None and all(abs(b[0] - cw.centre) > 1e-6 for b in bounds):
         bounds.append((cw.centre, "centre", math.inf))
@@ -126,13 +130,19 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
         marked_strip = kerb != 0 and bounds[i + (1 if kerb < 0 else 0)][1] in ("solid", "dashed")
         # a marked strip along the kerb: a cycle lane when narrow, a parking strip when a car fits
         # and is no lane's width, or where the frame's own cars park along that kerb
-        if marked_strip and (width < STRIP[0] or width < MIN_MOVING or (kerb in rows and width < STRIP[1])):
+        # (the ego vehicle drives in a moving lane: a strip over its path is none)
+        clear_of_ego = cw.side != 0 or (hi <= ego_s - EGO_CLEAR if kerb < 0 else lo >= ego_s + EGO_CLEAR)
+        if marked_strip and clear_of_ego and (width < STRIP[0] or width < MIN_MOVING or (kerb in rows and width < STRIP[1])):
             role = "none" if width < STRIP[0] else "parking"
             out.append(Lane(lo, hi, role, 0, k, kerb))
             continue
         for side in (-1, 1):  # an unmarked kerb lane beside the frame's own parked row
             on_kerb = (side == -1 and i == 0) or (side == 1 and i == n - 2)
-            if on_kerb and side in rows and hi - lo >= WIDE:
+            # (never over the ego vehicle's own path: it drives there; the row's cars stand
+            # partly on the footway where the kerb is nearer to it than that)
+            inner = lo + ROW_WIDTH if side == -1 else hi - ROW_WIDTH
+            clear = cw.side != 0 or side * (inner - ego_s) >= EGO_CLEAR
+            if on_kerb and side in rows and hi - lo >= WIDE and clear:
                 if side == -1:
                     out.append(Lane(lo, lo + ROW_WIDTH, "parking", 0, k, -1))
                     lo += ROW_WIDTH
