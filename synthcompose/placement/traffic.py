@@ -23,6 +23,7 @@ import numpy as np
 from synthcompose.geometry.depth import Frame
 from synthcompose.labels import label_id
 
+from .ends import street_ends
 from .lanes import Lane, lane_at, lanes, sun_direction_of
 from .parked import parked_rows
 from .road import road_line
@@ -129,8 +130,7 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
     lane's centre (moving) or to the kerb (parked), and its heading; or why it cannot.
     ``mode``: ``along-road`` (as the lane is), ``moving`` or ``parked``."""
     a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
-    all_lanes = lanes(frame, street, hand)
-    lane = lane_at(all_lanes, s)
+    lane = street_lane(frame, street, s, hand)
     if lane is None:
         return side_street_spot(frame, street, point, extents, mode, rng, jitter, hand)
     l, w, _ = extents
@@ -164,6 +164,16 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
                       "with" if lane.direction > 0 else "against", a, target, math.degrees(heading), cw.centre,
                       (lane.right, lane.left), None, layout)
     return np.array([xy[0], xy[1], point[2]]), yaw, traffic
+
+
+def street_lane(frame: Frame, street: Street, s: float, hand: int) -> Lane | None:
+    """The lane at offset ``s`` across the street; None off the street's lanes, and on the ego
+    carriageway of a street that ends ahead (ends.py: a T-junction seen head-on, where the
+    road ahead runs across the view and a vehicle there stands on that side street)."""
+    lane = lane_at(lanes(frame, street, hand), s)
+    if lane is not None and lane.carriageway == 0 and street_ends(frame, street):
+        return None
+    return lane
 
 
 def parking_fit(frame: Frame, street: Street, lane: Lane, extents) -> tuple[str, float, float]:
@@ -323,7 +333,10 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
     if orientation in ("along-road", "moving", "parked"):
         keep = np.zeros(len(s), bool)
         w = extents[1]
+        ends = street_ends(frame, street)
         for lane in lanes(frame, street, hand):
+            if ends and lane.carriageway == 0:  # a side street's (street_lane)
+                continue
             ok = (lane.role == "moving" and orientation != "parked" and lane.width >= lane_room(w)) or \
                  (lane.role == "parking" and orientation != "moving"
                   and lane.width >= parking_fit(frame, street, lane, extents)[2] + PARK_GAP - 0.1)
@@ -331,8 +344,9 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
                 keep |= (s >= lane.right) & (s <= lane.left)
         if orientation != "parked":
             off = np.ones(len(s), bool)
-            for cw in street.carriageways:
-                off &= (s < cw.right - 1.0) | (s > cw.left + 1.0)
+            for k, cw in enumerate(street.carriageways):
+                if not (ends and k == 0):  # a street that ends: its carriageway is a side street's
+                    off &= (s < cw.right - 1.0) | (s > cw.left + 1.0)
             keep |= off
         return keep
     if orientation == "facing-traffic":

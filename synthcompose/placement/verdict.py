@@ -27,7 +27,6 @@ import numpy as np
 from synthcompose.geometry.depth import Frame, back_project
 from synthcompose.labels import label_id
 
-from .lanes import lane_at, lanes
 from .rules import GROUND_LEVEL, Rejection, label_mask
 from .street import EGO_HALF_LANE
 from .traffic import (
@@ -39,6 +38,7 @@ from .traffic import (
     parking_fit,
     side_street_spot,
     sign_distance,
+    street_lane,
     street_of,
 )
 
@@ -142,7 +142,7 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
     l, w, _ = extents
     point = m[:3, 3]
     a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
-    lane = lane_at(lanes(frame, street, hand), s)
+    lane = street_lane(frame, street, s, hand)
     if lane is None:
         if claim.where != "side street":
             return Rejection("not in a lane", f"{s:.2f} m across the street, in no lane")
@@ -209,7 +209,7 @@ def lane_yaw_error(frame: Frame, extents, m: np.ndarray, traffic: str = "right-h
     street = street_of(frame, traffic)
     point = m[:3, 3]
     a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
-    lane = lane_at(lanes(frame, street, hand), s)
+    lane = street_lane(frame, street, s, hand)
     yaw = math.atan2(m[1, 0], m[0, 0])
     if lane is None:
         spot = side_street_spot(frame, street, point, extents, "moving", np.random.default_rng(0), 0.0, hand)

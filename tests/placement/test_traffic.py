@@ -236,3 +236,27 @@ def test_a_person_over_a_side_streets_carriageway_is_rejected():
     on_footway = np.array([20.49, 6.91])
     assert str(scene.surface_label(*on_footway)) == "sidewalk"
     assert on_carriageway(frame, pose_matrix(np.array([*on_footway, 0.148]), up, -3.07), SIZES["person"]) is None
+
+
+def test_no_vehicle_in_the_lanes_of_a_street_that_ends_ahead():
+    # a T-junction seen head-on: a house front across the street 17 m ahead. The axis found
+    # along the view is no street anyone drives along (leverkusen_000045: a car faced the house)
+    from dataclasses import replace
+
+    from synthcompose.placement.ends import street_ends
+    from synthcompose.synthetic.scene import Box
+
+    scene = random_scene(np.random.default_rng([21, 0]), W, H, street="two-way")
+    cam_a = float(scene.camera.x)
+    house = Box((cam_a + 17.0, -30.0, 0.0), (cam_a + 25.0, 30.0, 9.0), "building", label_id("building"),
+                texture="facade")
+    ended = replace(scene, boxes=tuple(scene.boxes) + (house,))
+    for s, ends in ((scene, False), (ended, True)):
+        arrays = render_scene(s)
+        frame = make_frame(disparity_to_depth(arrays["disparity"], s.camera), arrays["label_ids"], s.camera,
+                           photo=arrays["rgb"])
+        assert street_ends(frame, find_street(frame)) is ends
+        if ends:
+            for seed in range(3):
+                got = place_object(frame, "car", (4.4, 1.8, 1.5), np.random.default_rng(seed), RULES)
+                assert got.placement is None or got.placement.traffic.where != "carriageway"
