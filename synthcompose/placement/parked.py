@@ -4,8 +4,10 @@
 Vehicle points are the labelled vehicles of a labelled frame, or, on a frame without labels,
 the points 0.4-1.5 m above the road at their distance along the street that are neither road
 nor sidewalk (a car's body: below, the ground; above, mostly walls and trees). A kerb has a
-parked row where such points stand within ``ROW_REACH`` of it over at least ``MIN_ROW`` metres
-of the street (a car driving by is seen over a few metres, mostly its rear). The row's depth
+parked row where such points stand within ``ROW_REACH`` of it (and on the carriageway, not
+beyond the other kerb) over at least ``MIN_ROW`` metres of the street (a car driving by is seen
+over a few metres, mostly its rear), in blobs whose nearest point is within ``KERB_TOUCH`` of
+the kerb (a car driving in the lane beside the row is a blob of its own, farther in). The row's depth
 is how far its road-facing side stands from the kerb (per metre of the street the farthest
 point, the median over the row): a parallel row is about a car's width deep, a row of bays a
 car's length. Bays are angled or perpendicular by the main axis of the row's blobs (the points
@@ -132,20 +134,22 @@ def _rows(frame: Frame, street: Street) -> dict[int, ParkedRow]:
 
 def make_grid(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[int, np.ndarray]:
     """The row's points on a ``cell`` grid (a, s), connected: (count + 1, component labels)."""
-    i = ((a - a.min()) / cell).astype(np.int64)
-    j = ((s - s.min()) / cell).astype(np.int64)
+    i, j = _cells(a, s, cell)
     grid = np.zeros((int(i.max()) + 1, int(j.max()) + 1), np.uint8)
     grid[i, j] = 1
     return cv2.connectedComponents(grid, connectivity=8)
+
+
+def _cells(a: np.ndarray, s: np.ndarray, cell: float = 0.25) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's grid cell (row along a, column along s)."""
+    return ((a - a.min()) / cell).astype(np.int64), ((s - s.min()) / cell).astype(np.int64)
 
 
 def _at_kerb(a: np.ndarray, s: np.ndarray, inward: np.ndarray) -> np.ndarray:
     """(N,) bool: the points of the blobs (make_grid's, at least 12 cells) whose nearest point
     stands within KERB_TOUCH of the kerb (``inward``: metres from it into the carriageway)."""
     n, comp = make_grid(a, s)
-    i = ((a - a.min()) / 0.25).astype(np.int64)
-    j = ((s - s.min()) / 0.25).astype(np.int64)
-    label = comp[i, j]
+    label = comp[_cells(a, s)]
     cells = np.bincount(comp.ravel(), minlength=n)
     nearest = np.full(n, np.inf)
     np.minimum.at(nearest, label, inward)
