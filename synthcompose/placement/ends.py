@@ -19,9 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from synthcompose.geometry.depth import Frame
-from synthcompose.labels import label_id
 
-from .street import Street, to_road
+from .street import Street, heights_over_road
 
 #: a wall this near ahead (metres along the street) ...
 END_NEAR = 20.0
@@ -39,27 +38,10 @@ def street_ends(frame: Frame, street: Street) -> bool:
 
 
 def _ends(frame: Frame, street: Street) -> bool:
-    step = 4
-    finite = np.isfinite(frame.depth[::step, ::step])
-    v, u = np.nonzero(finite)
-    v, u = v * step, u * step
-    cam = frame.camera
-    z = frame.depth[v, u].astype(np.float64)
-    optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
-    m = cam.vehicle_from_optical
-    p = optical @ m[:3, :3].T + m[:3, 3]
-    a, s = to_road(p[:, :2], street.b, street.q)
-    road = frame.label_ids[v, u] == label_id("road")
-    bins = np.clip(a.astype(np.int64), 0, int(END_NEAR) + 1)
-    heights = np.full(int(END_NEAR) + 2, np.nan)
-    for i in np.unique(bins[road]):
-        here = road & (bins == i)
-        if here.sum() >= MIN_ROAD_POINTS:  # a few stray road pixels (on a wall's foot) are no road
-            heights[i] = np.median(p[here, 2])
-    known = np.flatnonzero(np.isfinite(heights))
-    if not len(known):
+    found = heights_over_road(frame, street, far=END_NEAR + 1, min_points=MIN_ROAD_POINTS)
+    if found is None:
         return False
-    h = p[:, 2] - np.interp(np.arange(len(heights)), known, heights[known])[bins]
+    _, _, a, s, h = found
     cw = street.ego
     sel = (h >= STANDING[0]) & (h <= STANDING[1]) & (a > 0.0) & (a <= END_NEAR) & (s >= cw.right) & (s <= cw.left)
     width = cw.left - cw.right

@@ -27,7 +27,7 @@ from synthcompose.labels import label_id
 
 from .markings import ground_
 from .rules import label_mask
-from .street import Street, to_road
+from .street import Street, heights_over_road, to_road
 
 VEHICLES = ("car", "truck", "bus", "caravan", "trailer")
 #: a row's cars stand within this far into the carriageway from the kerb and this far beyond it
@@ -71,25 +71,10 @@ def _vehicle_points(frame: Frame, street: Street) -> tuple[np.ndarray, np.ndarra
         v, u = np.nonzero(label_mask([label_id(n) for n in VEHICLES])[lab] & finite)
         xy = ground_(frame, v * 4, u * 4)
         return to_road(xy, street.b, street.q)
-    v, u = np.nonzero(finite)
-    v, u = v * 4, u * 4
-    cam = frame.camera
-    z = frame.depth[v, u].astype(np.float64)
-    optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
-    m = cam.vehicle_from_optical
-    p = optical @ m[:3, :3].T + m[:3, 3]
-    a, s = to_road(p[:, :2], street.b, street.q)
-    road = lab[v // 4, u // 4] == label_id("road")
-    # the road's height along the street, per metre of a
-    bins = np.clip(a.astype(np.int64), 0, 80)
-    heights = np.full(81, np.nan)
-    for i in np.unique(bins[road]):
-        heights[i] = np.median(p[road & (bins == i), 2])
-    known = np.flatnonzero(np.isfinite(heights))
-    if not len(known):
+    found = heights_over_road(frame, street, far=80.0)
+    if found is None:
         return np.empty(0), np.empty(0)
-    ground = np.interp(np.arange(81), known, heights[known])[bins]
-    h = p[:, 2] - ground
+    v, u, a, s, h = found
     body = (h >= BODY[0]) & (h <= BODY[1]) & ~label_mask([label_id("road"), label_id("sidewalk")])[lab[v // 4, u // 4]]
     return a[body], s[body]
 

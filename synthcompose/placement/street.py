@@ -329,3 +329,31 @@ def _crossings(zebra: np.ndarray, b: float, q: float, ego: Carriageway) -> list[
         if hi - lo <= 8.0:
             found.append(Crossing(float(lo), float(hi), ego.right, ego.left))
     return found
+
+
+def heights_over_road(frame: Frame, street: Street, far: float, min_points: int = 1, step: int = 4
+                      ) -> tuple[np.ndarray, ...] | None:
+    """Every ``step``-th pixel with a depth as (v, u, a, s, h): its place along and across the
+    street and its height over the road there (per metre of a up to ``far``, the median height
+    of the road's points, where at least ``min_points`` of them; between and beyond, the
+    nearest such metres' heights interpolated); None where no metre has road."""
+    v, u = np.nonzero(np.isfinite(frame.depth[::step, ::step]))
+    v, u = v * step, u * step
+    cam = frame.camera
+    z = frame.depth[v, u].astype(np.float64)
+    optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
+    m = cam.vehicle_from_optical
+    p = optical @ m[:3, :3].T + m[:3, 3]
+    a, s = to_road(p[:, :2], street.b, street.q)
+    road = frame.label_ids[v, u] == label_id("road")
+    n = int(far) + 1
+    bins = np.clip(a.astype(np.int64), 0, n - 1)
+    heights = np.full(n, np.nan)
+    for i in np.unique(bins[road]):
+        here = road & (bins == i)
+        if here.sum() >= min_points:
+            heights[i] = np.median(p[here, 2])
+    known = np.flatnonzero(np.isfinite(heights))
+    if not len(known):
+        return None
+    return v, u, a, s, p[:, 2] - np.interp(np.arange(n), known, heights[known])[bins]
