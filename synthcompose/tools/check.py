@@ -45,7 +45,7 @@ from synthcompose.placement import (
     road_line,
     scene_clearance,
 )
-from synthcompose.placement.rules import rules_from, standing_footprint
+from synthcompose.placement.rules import UPRIGHT, rules_from, standing_footprint
 from synthcompose.placement.saved_poses import placement_from_pose
 from synthcompose.placement.surfaces import frame_for
 from synthcompose.placement.traffic import Traffic
@@ -89,6 +89,19 @@ class ObjectCheck:
         return out
 
 
+def ground_gap(fit, matrix: np.ndarray, grid: np.ndarray, class_name: str) -> float:
+    """How far the object's footing is from the robust local ground plane ``fit`` (metres; nan
+    without a plane): the corners of its footprint ``grid`` (placement's samples, object frame).
+    A person or a pole stands plumb (placement/search.py), so on a slope it touches the ground
+    at its foot, not at its box's corners (a slope of 8 degrees lifts them 5-6 cm): its foot."""
+    if fit is None or not np.isfinite(fit.rms):
+        return float("nan")
+    rows = grid.reshape(FOOTPRINT_SAMPLES[1], FOOTPRINT_SAMPLES[0], 3)
+    at = matrix[:3, 3][None] if class_name in UPRIGHT else \
+        rows[[0, 0, -1, -1], [0, -1, 0, -1]] @ matrix[:3, :3].T + matrix[:3, 3]
+    return float(np.abs(at[:, 2] - fit.height(at[:, 0], at[:, 1])).max())
+
+
 def _ident_from_record(record: ImageSetRecord) -> tuple[Path, ImageSetId]:
     rgb = Path(record.source["rgb"])
     split, city = record.image_set.split("/")[:2]
@@ -130,14 +143,8 @@ def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(
             return float(sup["allowed"][sup["seen"]].mean())
 
         share = share_on(frame)
-        # ground gap: corners of the footprint vs the robust local ground plane around the object
-        reach = math.hypot(l, w) / 2 + 0.5
-        fit = local_ground(frame, m[:3, 3], reach, allowed, noise)
-        gap = float("nan")
-        if fit is not None and np.isfinite(fit.rms):
-            rows = grid.reshape(FOOTPRINT_SAMPLES[1], FOOTPRINT_SAMPLES[0], 3)
-            corners = rows[[0, 0, -1, -1], [0, -1, 0, -1]] @ m[:3, :3].T + m[:3, 3]
-            gap = float(np.abs(corners[:, 2] - fit.height(corners[:, 0], corners[:, 1])).max())
+        fit = local_ground(frame, m[:3, 3], math.hypot(l, w) / 2 + 0.5, allowed, noise)
+        gap = ground_gap(fit, m, grid, obj.class_name)
         # penetration of scene points into the box (above the ground's noise band)
         box = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])
         rect = frame.box_rect(box @ m[:3, :3].T + m[:3, 3])

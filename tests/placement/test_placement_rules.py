@@ -156,3 +156,28 @@ def test_check_placement_reports_every_object_within_limits(tmp_path, capsys):
     cars = [o for o in report["objects"] if o["name"] == "car"]
     assert cars and all(o["yaw_to_road_deg"] is not None and o["yaw_to_road_deg"] <= CAR_YAW_TO_ROAD_DEG for o in cars)
     assert "objects checked" in capsys.readouterr().out
+
+
+def test_the_checkers_ground_gap_takes_a_plumb_person_at_its_foot_and_a_car_at_its_corners():
+    """A person (or a pole) stands plumb on a slope (placement/search.py): its box's corners are
+    off the sloping plane by the slope, its foot is on it; a car lies on the plane. The checker
+    measures each where it touches the ground, and still sees either one floating."""
+    import math
+
+    from synthcompose.placement.boxes import footprint_grid, pose_matrix
+    from synthcompose.placement.ground import GroundFit
+    from synthcompose.tools.check import LIMITS, ground_gap
+
+    slope = math.tan(math.radians(8.0))
+    normal = np.array([-slope, 0.0, 1.0]) / math.hypot(slope, 1.0)
+    fit = GroundFit((slope, 0.0, 0.0), 0.01, normal)  # z = tan(8 deg) x
+    at = np.array([10.0, 2.0, 10.0 * slope])
+    person = pose_matrix(at, np.array([0.0, 0.0, 1.0]), 0.3)  # plumb
+    car = pose_matrix(at, normal, 0.3)  # on the plane
+    assert ground_gap(fit, person, footprint_grid(0.6, 0.6), "person") < 1e-9
+    assert ground_gap(fit, car, footprint_grid(4.4, 1.8), "car") < 1e-9
+    # the person's box corners are off the plane by the slope: measured so, it would fail
+    assert ground_gap(fit, person, footprint_grid(0.6, 0.6), "car") > LIMITS["ground_gap_m"] - 0.01
+    lifted = person.copy()
+    lifted[2, 3] += 0.08
+    assert ground_gap(fit, lifted, footprint_grid(0.6, 0.6), "person") > LIMITS["ground_gap_m"]
