@@ -6,7 +6,9 @@
 For each output root, from each record's objects and its ``street`` (the axis, carriageways,
 centre lines and markings placement found):
 
-* placed / asked, overall and for people and signs; the frames that got no object, and whether
+* placed / asked (the manifest's objects per set), and placed / drawn for people, signs and
+  vehicles (an object that found no place is replaced by one of another kind, a draw of its
+  own: ``redraw_unplaced``); the frames that got no object, and whether
   they had free road or footway at all (a road or sidewalk pixel in the distance range);
 * **headings**: each vehicle's lateral position s across the street (from its pose, against the
   recorded axis) and its heading against the street's direction there; on a two-way carriageway
@@ -69,7 +71,11 @@ def analyse(out: Path) -> dict:
     for path in sorted((out / "synthcompose").rglob("*_synthcompose.json")):
         rec = read_record(path)
         for f in rec.not_placed:
-            asked[f["class"]] += 1
+            asked[f["class"]] += 1  # each draw that found no place, a substitute's too
+            # an object that got a substitute, and a substitute that failed, leave no slot empty
+            # beyond the first failure: count the slot once
+            counts["slots left empty"] += not f.get("replaced_by") and not f.get("substitute_for")
+            counts["objects replaced by another kind"] += bool(f.get("replaced_by"))
         for obj in rec.objects:
             asked[obj.class_name] += 1
             placed[obj.class_name] += 1
@@ -153,8 +159,10 @@ def analyse(out: Path) -> dict:
             findings.append((c.image_set, c.index, c.name, f"check: {', '.join(c.failures)} {c.rule or ''}"))
     people = ("person",)
     signs = ("traffic sign",)
+    vehicles = VEHICLES
     result = {
-        "asked": sum(asked.values()), "placed": sum(placed.values()),
+        "asked": sum(placed.values()) + counts["slots left empty"], "placed": sum(placed.values()),
+        "vehicles": (sum(placed[k] for k in vehicles), sum(asked[k] for k in vehicles)),
         "people": (sum(placed[k] for k in people), sum(asked[k] for k in people)),
         "signs": (sum(placed[k] for k in signs), sum(asked[k] for k in signs)),
         "frames_without_objects": empty, "counts": dict(counts), "findings": findings,
@@ -165,8 +173,9 @@ def analyse(out: Path) -> dict:
 def report(out: Path, r: dict) -> None:
     share = r["placed"] / max(r["asked"], 1)
     print(f"\n== traffic sense: {out}")
-    print(f"placed {r['placed']}/{r['asked']} ({share:.0%}); people {r['people'][0]}/{r['people'][1]}, "
-          f"signs {r['signs'][0]}/{r['signs'][1]}")
+    print(f"placed {r['placed']}/{r['asked']} ({share:.0%}) of the objects asked; of the objects drawn: "
+          f"people {r['people'][0]}/{r['people'][1]}, signs {r['signs'][0]}/{r['signs'][1]}, "
+          f"vehicles {r['vehicles'][0]}/{r['vehicles'][1]}")
     print("frames without objects:", r["frames_without_objects"] or "none")
     for k, v in r["counts"].items():
         print(f"  {k}: {v}")

@@ -48,6 +48,9 @@ SCHEMA: dict[str, Any] = {
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
         "objects_per_image": {"type": "integer", "minimum": 1, "maximum": 15},
         "object_choice": {"enum": ["weights", "balance"]},
+        # an object that finds no place is replaced, once, by one drawn from the objects that
+        # stand elsewhere in traffic (stages/place.py); false: it is left out
+        "redraw_unplaced": {"type": "boolean"},
         # a built-in cast (cast/street.py): stands for a list of objects drawn from the catalogue;
         # "objects", when given too, adds to it
         "cast": {"enum": sorted(CASTS)},
@@ -164,6 +167,7 @@ class Manifest:
     # --- end lighting modes
     shading: str = "auto"  # render.py: "pixel", "sample", or "auto" (by the GL device)
     right_view: bool = True  # augment the right photo of the pair too, where the input has one
+    redraw_unplaced: bool = True  # an object without a place is replaced by one that stands elsewhere
     _hash: list = field(default_factory=list, init=False, compare=False, repr=False)  # config_hash, once computed
 
     @property
@@ -323,7 +327,8 @@ def parse_manifest(data: Any, path: Path) -> Manifest:
         lighting_mode=lighting_mode, match_exposure=bool(lt.get("match_exposure", False)),  # lighting modes
         camera_match=bool(lt.get("camera_match", True)),
         shading=data.get("render", {}).get("shading", "auto"),
-        right_view=bool(data.get("render", {}).get("right_view", True)))
+        right_view=bool(data.get("render", {}).get("right_view", True)),
+        redraw_unplaced=bool(data.get("redraw_unplaced", True)))
 
 
 def load_manifest(path: str | Path) -> Manifest:

@@ -36,6 +36,7 @@ class PlaceOptions:
     rules: PlacementRules
     light_record: tuple[tuple[str, Any], ...]  # the record's light before any estimate: (key, value)
     config_hash: str
+    redraw_unplaced: bool = True  # an object without a place is replaced by one that stands elsewhere
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,6 @@ class StageOptions:
         light = fixed_record(m.lighting, **dict(m.lighting_keys)) if fixed else {"mode": "estimate"}
         return cls(ReadOptions(m.dataset, m.seed, m.right_view, m.lighting_mode == "estimate", m.camera_match),
                    PlaceOptions(m.dataset, m.seed, m.objects, m.objects_per_image, m.rules, tuple(light.items()),
-                                m.config_hash),
+                                m.config_hash, m.redraw_unplaced),
                    ShadeOptions(m.seed, m.lighting, m.match_exposure),
                    WriteOptions(m.dataset, m.output))

@@ -59,10 +59,14 @@ class NotPlaced:
     reason: str
     attempts: int
     rejections: tuple[tuple[str, int], ...]  # (reason, candidates rejected for it), in the order first met
+    replaced_by: str | None = None  # the object of another kind drawn and placed instead (its name)
+    substitute_for: str | None = None  # this was drawn instead of that object, and found no place either
 
     def to_json(self) -> dict:
         return {"name": self.name, "class": self.class_name, "reason": self.reason, "attempts": self.attempts,
-                "rejections": dict(self.rejections)}
+                "rejections": dict(self.rejections)} \
+            | ({"replaced_by": self.replaced_by} if self.replaced_by else {}) \
+            | ({"substitute_for": self.substitute_for} if self.substitute_for else {})
 
 
 @dataclass(frozen=True)
@@ -195,6 +199,38 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
     return PlacedObject(spec, model, result, inst, check, drawn, None if pose is None else MappingProxyType(pose))
 
 
+def where_it_stands(class_name: str) -> str:
+    """The kind of place an object of this class takes in traffic: its class's own orientation
+    rule (vehicles in a lane or at the kerb, people on a footway, signs at the kerb's edge)."""
+    return orientation_for(class_name)
+
+
+def _redraw(o: PlaceOptions, weights: np.ndarray, prep: Prepared, objects: list, failures: list[NotPlaced],
+            taken: set[int], trace: list | None) -> list[NotPlaced]:
+    """Each object that found no place is replaced, once, by one drawn by ``weights`` from the
+    manifest's objects that stand elsewhere in traffic (:func:`where_it_stands`) than any that
+    failed in this frame: a street whose lanes are taken gets a person or a sign instead of a
+    third car, a frame without footway a car instead of a person. The failures, each with what
+    replaced it (or the substitute's own failure), for the record."""
+    failed = {where_it_stands(f.class_name) for f in failures}
+    out: list[NotPlaced] = []
+    for f in failures:
+        pick = [i for i, s in enumerate(o.objects) if weights[i] > 0 and where_it_stands(s.class_name) not in failed]
+        if not pick:
+            out.append(f)
+            continue
+        p = weights[pick] / weights[pick].sum()
+        spec = o.objects[pick[int(prep.rng.choice(len(pick), p=p))]]
+        done = _place_one(o, prep, spec, objects, taken, None, trace)
+        if isinstance(done, PlacedObject):
+            objects.append(done)
+            out.append(replace(f, replaced_by=spec.name))
+        else:
+            failed.add(where_it_stands(spec.class_name))
+            out += [f, replace(done, substitute_for=f.name)]
+    return out
+
+
 def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``o.objects_per_image`` objects (by ``weights``) and place each in the frame, the
@@ -224,6 +260,8 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
                     rejections = Counter(dict(f.rejections)) + Counter(dict(done.rejections))
                     failures.append(replace(done, attempts=f.attempts + done.attempts,
                                             rejections=tuple(rejections.items())))
+        if saved is None and failures and o.redraw_unplaced:
+            failures = _redraw(o, weights, prep, objects, failures, taken, trace)
     noise = frame_noise(frame)
     hand = hand_of(o.rules.traffic)
     street = frame.made(("street", hand))  # found when an object asked for it

@@ -239,3 +239,29 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     assert got[2].status == "failed" and "No space left" in got[2].reason
     assert not ids[2].path(tmp_path / "w", "record").exists()
     assert ids[3].path(tmp_path / "w", "record").is_file() and ids[0].path(tmp_path / "w", "record").is_file()
+
+
+def test_an_object_without_a_place_is_replaced_by_one_that_stands_elsewhere(dataset, tmp_path):
+    """A car allowed only on grass (the generated frames have none) is drawn for every slot; each
+    is replaced by a sign, which stands at the kerb, and the record says which it replaced. With
+    ``redraw_unplaced`` false the slots stay empty."""
+    root, ids = dataset
+    objects = [{"name": "car on grass", "model": "builtin:box", "class": "car", "size": {"length": 4.0},
+                "allowed_surfaces": ["terrain"], "weight": 1e6},
+               {"name": "sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5},
+                "orientation": "face-camera", "weight": 1e-3}]
+    out = tmp_path / "out"
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out, objects=objects)), "--no-progress"]) == 0
+    records = [json.loads(ident.path(out, "record").read_text()) for ident in ids]
+    signs = 0
+    for record in records:
+        missed = record["not_placed"]
+        assert [m["class"] for m in missed] == ["car", "car"]  # both slots drew the car
+        assert all(o["class"] == "traffic sign" for o in record["objects"])
+        assert sum(m.get("replaced_by") == "sign" for m in missed) == len(record["objects"])
+        signs += len(record["objects"])
+    assert signs >= len(ids)  # the frames have footway for a sign
+    none = tmp_path / "none"
+    manifest = write_manifest(tmp_path / "n.json", root, none, objects=objects, redraw_unplaced=False)
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
+    assert all(json.loads(ident.path(none, "record").read_text())["objects"] == [] for ident in ids)
