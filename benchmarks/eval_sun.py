@@ -51,6 +51,7 @@ from synthcompose.io.dataset import find_image_sets, labelled_twin, read_image_s
 from synthcompose.io.files import decode_rle  # noqa: E402
 from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.lighting import plansun  # noqa: E402
+from synthcompose.lighting.light import LightEstimate  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
 from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
@@ -95,10 +96,32 @@ def sunless_batch(manifest: Path, out: Path, frames: list[str]) -> None:
         prepare.estimate_lighting = estimate
 
 
+def open_sun_batch(manifest: Path, out: Path, frames: list[str]) -> None:
+    """The batch of ``manifest`` on ``frames`` again into ``out``, the sun reaching all the real
+    ground (no sun mask): each object's whole cast shadow, also where the output leaves it out
+    because the ground there lies in a real shadow already (a tree's, a house's). Over the
+    sunless twin it gives the direction the object throws its shadow in, seen on as much ground
+    as the photo shows, not only on the sunlit patches of a dappled road."""
+    cls = LightEstimate
+    sun_mask = cls.sun_mask
+
+    def everywhere(self, rgb, label_ids):
+        mask = sun_mask(self, rgb, label_ids)
+        return None if mask is None else np.ones_like(mask)
+
+    m = replace(load_manifest(manifest), output=out, frames=tuple(frames))
+    cls.sun_mask = everywhere
+    try:
+        run_batch(m, workers=1, progress=False, resume=False)
+    finally:
+        cls.sun_mask = sun_mask
+
+
 def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
-            sunless: Path | None = None) -> tuple[list, list, list]:
+            sunless: Path | None = None, open_sun: Path | None = None) -> tuple[list, list, list]:
     """(frames, inserted cars, real cars) of one batch's outputs under ``out``; ``sunless``: the
-    output root of :func:`sunless_batch` for its frames called sunny."""
+    output root of :func:`sunless_batch` for its frames called sunny; ``open_sun``: that of
+    :func:`open_sun_batch`."""
     frames, cars, real = [], [], []
     for ident, rec, src, res in done_outputs(root, out):
         depth = disparity_to_depth(src.disparity, src.camera)
@@ -114,21 +137,29 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         objects = np.zeros(ground.shape, bool)
         for m in masks:
             objects |= m
+        # every inserted pixel, a sign's post too (labelled pole, apart from its plate's instance):
+        # where the output's labels differ from the input's (nothing but inserted objects where the
+        # input has none)
+        objects |= res.label_ids != (src.label_ids if src.labelled else 0)
         twin = labelled_twin(truth, ident) if truth is not None and not src.labelled else None
         ref = read_image_set(truth, twin) if twin is not None else (src if src.labelled else None)
         if ref is not None:
             objects |= ref.instance_ids >= 1000
-        outlines = shadowlook.outline(src.rgb, res.rgb, masks)
+        outlines = shadowlook.outline(src.rgb, res.rgb, masks, objects)
         twin = None
         if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
             twin = read_image_set(sunless, ident)
         feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
         fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan) if twin is not None else None
+        # the whole cast shadow: the sun over all the real ground, over the sunless twin
+        whole = None
+        if twin is not None and open_sun is not None and ident.path(open_sun, "record").is_file():
+            whole = shadowlook.cast_shadow_fit(twin.rgb, read_image_set(open_sun, ident).rgb, masks, feet, plan)
         # the sky's shadow alone (the sunless twin where the frame is sunny): the receiver's own
         # outline and blotches, without the sun shadow's edges (the caster's shape)
         sky_out = res.rgb if twin is None else twin.rgb
-        sky_outlines = outlines if twin is None else shadowlook.outline(src.rgb, twin.rgb, masks)
-        angles, angles_all = [], []
+        sky_outlines = outlines if twin is None else shadowlook.outline(src.rgb, twin.rgb, masks, objects)
+        angles, angles_all, angles_whole = [], [], []
         for k, (obj, m, line, sky_line) in enumerate(zip(rec["objects"], masks, outlines, sky_outlines)):
             angle = None
             if sunny and real_dir is not None:
@@ -140,6 +171,8 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
                 angle = None if fits[k] is None else shadowlook.axis_angle(fits[k][0], real_dir)
                 if angle is not None:
                     angles.append(angle)
+            if whole is not None and whole[k] is not None:
+                angles_whole.append(shadowlook.axis_angle(whole[k][0], real_dir))
             ys, xs = np.nonzero(m)
             width = int(xs.max() - xs.min() + 1) if len(xs) else 0
             if obj["label_id"] != CAR or width < MIN_WIDTH:
@@ -159,23 +192,24 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         frames.append({"frame": ident.name, "label": labels.get(_frame_key(ident.name), "?"), "sunny": sunny,
                        "edge_m": plan_cue.get("edge_length_m"), "azimuth": light.get("sun_azimuth_deg"),
                        "elevation": light.get("sun_elevation_deg"), "real_dir": real_dir,
-                       "angles": angles, "angles_all": angles_all})
+                       "angles": angles, "angles_all": angles_all, "angles_whole": angles_whole})
     return frames, cars, real
 
 
 def report(title: str, frames: list, cars: list, real: list) -> dict:
     print(f"\n== {title}")
-    print(f"{'frame':<28} {'label':<9} {'called':<7} {'edges m':>7} {'sun az/el':>11} {'real dir':>8}  angles")
+    print(f"{'frame':<28} {'label':<9} {'called':<7} {'edges m':>7} {'sun az/el':>11} {'real dir':>8}  angles | whole")
     seen = {}
     for f in frames:  # one line per frame (the first seed's light: the estimate is the photo's)
         seen.setdefault(f["frame"], f)
     for f in sorted(seen.values(), key=lambda f: f["frame"]):
         ang = [a for g in frames if g["frame"] == f["frame"] for a in g["angles"]]
+        whole = [a for g in frames if g["frame"] == f["frame"] for a in g.get("angles_whole", [])]
         mark = "" if f["label"] == "?" else ("ok" if (f["label"] == "sunny") == f["sunny"] else "MISS")
         print(f"{f['frame']:<28} {f['label']:<9} {('sunny' if f['sunny'] else 'no'):<7} {f['edge_m'] or 0:7.2f} "
               f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
               f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
-              f"{' '.join(f'{a:.0f}' for a in ang)} {mark}")
+              f"{' '.join(f'{a:.0f}' for a in ang)}{' | whole ' if whole else ''}{' '.join(f'{a:.0f}' for a in whole)} {mark}")
     print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}"
           f" {'sky outline':>11} {'sky rough':>9}")
     for c in cars:
@@ -186,6 +220,9 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
     over_l = [f for f in seen.values() if f["label"] == "overcast"]
     angles = [a for f in frames if f["sunny"] for a in f["angles"]]
     angles_all = [a for f in frames if f["sunny"] for a in f.get("angles_all", [])]
+    whole = [a for f in frames if f["sunny"] for a in f.get("angles_whole", [])]
+    whole_l = [a for f in frames if f["sunny"] and f["label"] == "sunny" for a in f.get("angles_whole", [])]
+    outl_dull = [c["outline"] for c in cars if c["outline"] is not None and not c["sunny"]]
     unders = [c["under"] for c in cars if c["under"] is not None]
     real_u = [r["under"] for r in real if r["under"] is not None]
     outl = [c["outline"] for c in cars if c["outline"] is not None]
@@ -198,8 +235,12 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         "angles_within_15": f"{sum(a <= ANGLE_OK for a in angles)}/{len(angles)}",
         "angle_median": float(np.median(angles)) if angles else None,
         "angles_within_15_all_darkening": f"{sum(a <= ANGLE_OK for a in angles_all)}/{len(angles_all)}",
+        "angles_within_15_whole_cast_shadow": f"{sum(a <= ANGLE_OK for a in whole)}/{len(whole)}",
+        "whole_cast_shadow_median": float(np.median(whole)) if whole else None,
+        "angles_within_15_whole_on_frames_labelled_sunny": f"{sum(a <= ANGLE_OK for a in whole_l)}/{len(whole_l)}",
         "under_inserted": _summary(unders), "under_real": _summary(real_u),
         "outline_over_0.2": f"{sum(v > 0.2 for v in outl)}/{len(outl)}",
+        "outline_over_0.2_frames_not_called_sunny": f"{sum(v > 0.2 for v in outl_dull)}/{len(outl_dull)}",
         "rough_le_0.3": f"{sum(v <= 0.3 for v in rough)}/{len(rough)}",
         "sky_shadow_outline_over_0.2": f"{sum(v > 0.2 for v in sky_outl)}/{len(sky_outl)}",
         "sky_shadow_rough_le_0.3": f"{sum(v <= 0.3 for v in sky_rough)}/{len(sky_rough)}",
@@ -227,9 +268,12 @@ def run(root: Path, base: Path, seeds, objects: int, labels: dict, truth: Path |
             run_batch(manifest, workers=1, progress=False, resume=False)
         sunny = [ident.name for ident in find_image_sets(out) if _called_sunny(ident.path(out, "record"))]
         sunless = base / f"out_{seed}_sunless"
+        open_sun = base / f"out_{seed}_open_sun"
         if sunny and not measure_only:
             sunless_batch(base / f"look_manifest_{seed}.json", sunless, sunny)
-        f, c, r = measure(root, out, labels, truth, sunless if sunless.is_dir() else None)
+            open_sun_batch(base / f"look_manifest_{seed}.json", open_sun, sunny)
+        f, c, r = measure(root, out, labels, truth, sunless if sunless.is_dir() else None,
+                          open_sun if open_sun.is_dir() else None)
         frames += f
         cars += c
         real += r if seed == seeds[0] else []

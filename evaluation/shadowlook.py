@@ -89,13 +89,16 @@ def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndar
     return float(np.median(near) / max(np.median(far), 1e-6))
 
 
-def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray]) -> list[float | None]:
+def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray],
+            others: np.ndarray | None = None) -> list[float | None]:
     """Per object (``masks``: each inserted object's pixels, as annotated: :func:`annotated`),
     the summed length of the straight lines in the ratio output / input near it (their midpoint
     within half its width of its box) over its width; None for an empty mask. The ratio is
     blurred (:data:`OUTLINE_BLUR`),
     scaled by :data:`OUTLINE_SCALE` to 8 bits, Canny (:data:`OUTLINE_CANNY`) outside the objects
-    grown by :data:`OUTLINE_GROW`, probabilistic Hough (:data:`OUTLINE_HOUGH`)."""
+    grown by :data:`OUTLINE_GROW`, probabilistic Hough (:data:`OUTLINE_HOUGH`). ``others``: more
+    inserted pixels that are no object's instance (a sign's post, labelled ``pole`` apart from
+    its plate): left out with the objects, but measured near none."""
     ratio = _luminance(out) / np.maximum(_luminance(src), 1e-4)
     ratio = cv2.GaussianBlur(ratio.astype(np.float32), (0, 0), OUTLINE_BLUR)
     img = np.clip(ratio * OUTLINE_SCALE, 0, 255).astype(np.uint8)
@@ -103,6 +106,8 @@ def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray]) -> list[f
     objects = np.zeros(src.shape[:2], np.uint8)
     for m in masks:
         objects |= m.astype(np.uint8)
+    if others is not None:
+        objects |= others.astype(np.uint8)
     k = 2 * OUTLINE_GROW + 1
     grown = cv2.dilate(objects, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
     edges[grown] = 0

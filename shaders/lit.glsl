@@ -78,7 +78,7 @@ uniform float u_plane_fade;     // the darkening fades out over this many metres
 uniform sampler2D u_ground_sky; // the sky the ground planes see past the objects (ground_sky.glsl), over the sky map's square
 uniform float u_ground_sky_scale; // in its lower left square of this share of its side (shadows.ground_sky_texels)
 const float GROUND_SKY_BLUR = 0.25;  // metres
-const float GROUND_SKY_PIXELS = 3.0;  // and at least this many pixels' footprint (ground_sky())
+const float GROUND_SKY_PIXELS = 6.0;  // and at least this many pixels' footprint (ground_sky())
 uniform sampler2D u_under_map;  // depth of the objects' undersides seen from below (no compare)
 uniform mat4 u_under_matrix;    // vehicle -> that map [0,1]^3
 uniform float u_under_range;    // metres its depth 0..1 spans
