@@ -76,45 +76,46 @@ def _called_sunny(record: Path) -> bool:
     return rec.get("status") == "done" and bool(rec.get("lighting", {}).get("sunny"))
 
 
+def twin_batch(manifest: Path, out: Path, frames: list[str], owner, name: str, make) -> None:
+    """The batch of ``manifest`` on ``frames`` again into ``out``, in this process, with
+    ``owner.name`` replaced by ``make(original)`` while it runs (put back after)."""
+    original = getattr(owner, name)
+    m = replace(load_manifest(manifest), output=out, frames=tuple(frames))
+    setattr(owner, name, make(original))
+    try:
+        run_batch(m, workers=1, progress=False, resume=False)
+    finally:
+        setattr(owner, name, original)
+
+
 def sunless_batch(manifest: Path, out: Path, frames: list[str]) -> None:
-    """The batch of ``manifest`` on ``frames`` again into ``out``, in this process, each photo's
-    light estimated as before but with the sun's share given to the sky: the same objects, poses
-    and camera match, their occlusion shadow without the sun's cast shadow."""
+    """:func:`twin_batch` with each photo's light estimated as before but the sun's share given
+    to the sky: the same objects, poses and camera match, their occlusion shadow without the
+    sun's cast shadow."""
     import importlib
 
     prepare = importlib.import_module("synthcompose.stages.prepare")  # the module (the package exports a function)
-    estimate = prepare.estimate_lighting
 
-    def sunless(*args, **kwargs):
-        return replace(estimate(*args, **kwargs), sunny=False, sun_fraction=0.0)
+    def sunless(estimate):
+        return lambda *args, **kwargs: replace(estimate(*args, **kwargs), sunny=False, sun_fraction=0.0)
 
-    m = replace(load_manifest(manifest), output=out, frames=tuple(frames))
-    prepare.estimate_lighting = sunless
-    try:
-        run_batch(m, workers=1, progress=False, resume=False)
-    finally:
-        prepare.estimate_lighting = estimate
+    twin_batch(manifest, out, frames, prepare, "estimate_lighting", sunless)
 
 
 def open_sun_batch(manifest: Path, out: Path, frames: list[str]) -> None:
-    """The batch of ``manifest`` on ``frames`` again into ``out``, the sun reaching all the real
-    ground (no sun mask): each object's whole cast shadow, also where the output leaves it out
-    because the ground there lies in a real shadow already (a tree's, a house's). Over the
-    sunless twin it gives the direction the object throws its shadow in, seen on as much ground
-    as the photo shows, not only on the sunlit patches of a dappled road."""
-    cls = LightEstimate
-    sun_mask = cls.sun_mask
+    """:func:`twin_batch` with the sun reaching all the real ground (no sun mask): each object's
+    whole cast shadow, also where the output leaves it out because the ground there lies in a
+    real shadow already (a tree's, a house's). Over the sunless twin it gives the direction the
+    object throws its shadow in, seen on as much ground as the photo shows, not only on the
+    sunlit patches of a dappled road."""
 
-    def everywhere(self, rgb, label_ids):
-        mask = sun_mask(self, rgb, label_ids)
-        return None if mask is None else np.ones_like(mask)
+    def everywhere(sun_mask):
+        def mask_everywhere(self, rgb, label_ids):
+            mask = sun_mask(self, rgb, label_ids)
+            return None if mask is None else np.ones_like(mask)
+        return mask_everywhere
 
-    m = replace(load_manifest(manifest), output=out, frames=tuple(frames))
-    cls.sun_mask = everywhere
-    try:
-        run_batch(m, workers=1, progress=False, resume=False)
-    finally:
-        cls.sun_mask = sun_mask
+    twin_batch(manifest, out, frames, LightEstimate, "sun_mask", everywhere)
 
 
 def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
