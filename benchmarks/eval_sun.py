@@ -12,10 +12,13 @@ with the bundled manifest's objects (cars weighed up), estimated light and camer
   matches it best (shadowlook.cast_shadow_fit); the angle is taken mod 180 (0-90 degrees). The earlier
   measure, from the footprint to the centre of all the ground the object darkens (occlusion
   included: the ground between it and the camera, whatever the sun; shadowlook.shadow_orientation),
-  is printed beside it;
+  is counted beside it; and the whole cast shadow's angle (``| whole``): a third batch of those
+  frames with the sun over all the real ground (no sun mask), over the sunless twin, so that
+  the fit sees the shadow also where the output leaves it out on ground already in a real shadow;
 * per inserted car at least 150 px wide: ``under`` (shadowlook.under on the car as annotated,
   the ground 2-8 px under its lowest pixel over 20-40 px under), ``outline`` (straight lines of
-  the ratio output / input near it, over its width) and roughness (look.shadow_blotchiness);
+  the ratio output / input near it, over its width; every inserted pixel left out, a sign's
+  post too) and roughness (look.shadow_blotchiness);
   the same ``under`` for the frame's real cars where labels (or --truth) give them; and the
   outline and roughness of the sky's shadow alone (``sky outline``, ``sky rough``: on frames
   called sunny, measured on the sunless twin, so that the sun shadow's own edges, the caster's
@@ -141,12 +144,13 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         # every inserted pixel, a sign's post too (labelled pole, apart from its plate's instance):
         # where the output's labels differ from the input's (nothing but inserted objects where the
         # input has none)
-        objects |= res.label_ids != (src.label_ids if src.labelled else 0)
+        inserted = objects | (res.label_ids != (src.label_ids if src.labelled else 0))
+        objects = inserted.copy()
         twin = labelled_twin(truth, ident) if truth is not None and not src.labelled else None
         ref = read_image_set(truth, twin) if twin is not None else (src if src.labelled else None)
         if ref is not None:
             objects |= ref.instance_ids >= 1000
-        outlines = shadowlook.outline(src.rgb, res.rgb, masks, objects)
+        outlines = shadowlook.outline(src.rgb, res.rgb, masks, inserted)
         twin = None
         if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
             twin = read_image_set(sunless, ident)
@@ -159,7 +163,7 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         # the sky's shadow alone (the sunless twin where the frame is sunny): the receiver's own
         # outline and blotches, without the sun shadow's edges (the caster's shape)
         sky_out = res.rgb if twin is None else twin.rgb
-        sky_outlines = outlines if twin is None else shadowlook.outline(src.rgb, twin.rgb, masks, objects)
+        sky_outlines = outlines if twin is None else shadowlook.outline(src.rgb, twin.rgb, masks, inserted)
         angles, angles_all, angles_whole = [], [], []
         for k, (obj, m, line, sky_line) in enumerate(zip(rec["objects"], masks, outlines, sky_outlines)):
             angle = None
