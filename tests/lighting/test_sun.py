@@ -206,6 +206,22 @@ def test_the_outline_measure_sees_a_receivers_box_and_not_a_smooth_shadow():
         assert (value > 0.2) == boxy, (boxy, value)
 
 
+def test_the_outline_measure_leaves_out_an_inserted_post_beside_the_car():
+    """A sign's post is labelled pole, apart from its plate's instance: its sides are no shadow
+    receiver's outline once the inserted pixels are passed as ``others``."""
+    rng = np.random.default_rng(1)
+    src = np.clip(100 + rng.normal(0, 1, (400, 600, 3)), 0, 255).astype(np.uint8)
+    car = np.zeros((400, 600), bool)
+    car[150:230, 250:350] = True
+    post = np.zeros((400, 600), bool)
+    post[60:300, 380:386] = True  # a grey post 30 px right of the car, darker than the road
+    out = src.copy()
+    out[post] = 40
+    alone = shadowlook.outline(src, out, [car])[0]
+    assert alone > 0.2, alone  # the post's two long sides
+    assert shadowlook.outline(src, out, [car], others=post)[0] == 0.0
+
+
 def test_the_under_measure_and_the_labels_file(tmp_path):
     img = np.full((200, 300, 3), 120, np.uint8)
     mask = np.zeros((200, 300), bool)
