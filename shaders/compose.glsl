@@ -202,23 +202,43 @@ layout(location = 4) out uint out_visible;   // object index where it is seen, e
 #endif
 
 // The 8-bit output level of a pixel (sRGB [0, 1]): the photo's own level where the composite
-// keeps it (within 1/50 of a level), else the composite's level rounded up or down at random
-// with the odds of its fraction (unbiased). Plain rounding to the nearest level turns a smooth
-// darkening into bands of whole levels whose borders run as sharp lines along the shadow's
-// iso-lines (on a dark road one level is 3 % of its light): where the inserted shadow fades
-// out, the last level ends in one straight step around the car. Rounded at random, the levels
-// mix over the fade as a real photo's noise does, and no border is left. The random number is
-// a hash of the pixel: the same output from the same input on any machine.
+// keeps it (within 1/50 of a level), else each channel's level rounded down or up, so that the
+// pixel's luminance is the composite's on average. Plain rounding to the nearest level turns a
+// smooth darkening into bands of whole levels whose borders run as sharp lines along the
+// shadow's iso-lines (on a dark road one level is 3 % of its light): where the inserted shadow
+// fades out, the last level ends in one straight step around the car. Rounding all three
+// channels up or down together at random mixes the levels over the fade, but leaves the pixels
+// a whole level apart in luminance: grain no real shadow has. The eight colours one level apart
+// around the composite (each channel down or up) have eight luminances 0.07-0.72 of a level
+// apart (the channels' weights); the pixel takes one of the two that bracket the composite's
+// luminance, at random with the odds that make the mean exact: no band, and grain a few times
+// finer, in colour by at most one level a channel. The random number is a hash of the pixel:
+// the same output from the same input on any machine.
 uint pcg_hash(uint v) {
     uint state = v * 747796405u + 2891336453u;
     uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
     return (word >> 22u) ^ word;
 }
+const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
 vec3 quantize(vec3 srgb, vec3 photo, ivec2 p) {
     vec3 levels = (srgb - photo) * 255.0;
     if (all(lessThan(abs(levels), vec3(0.02)))) return photo;
+    vec3 down = clamp(photo + floor(levels) / 255.0, 0.0, 1.0);
+    vec3 up = clamp(photo + (floor(levels) + 1.0) / 255.0, 0.0, 1.0);
+    vec3 y_down = LUMA * srgb_to_linear(down), y_up = LUMA * srgb_to_linear(up);
+    float target = dot(LUMA, srgb_to_linear(srgb));
+    float below = -1.0, above = 1e9;
+    vec3 c_below = down, c_above = up;
+    for (int k = 0; k < 8; ++k) {
+        bvec3 pick = bvec3((k & 1) != 0, (k & 2) != 0, (k & 4) != 0);
+        float y = dot(mix(y_down, y_up, pick), vec3(1.0));
+        if (y <= target && y > below) { below = y; c_below = mix(down, up, pick); }
+        if (y >= target && y < above) { above = y; c_above = mix(down, up, pick); }
+    }
+    if (below < 0.0) return c_above;
+    if (above > 1e8) return c_below;
     float u = float(pcg_hash(uint(p.x) + pcg_hash(uint(p.y))) >> 8u) / 16777216.0;
-    return clamp(photo + floor(levels + u) / 255.0, 0.0, 1.0);
+    return (above > below && u * (above - below) < target - below) ? c_above : c_below;
 }
 
 // Variants (compose.Composer): BLUR when the object layer is blurred (u_blur_radius > 0: the
