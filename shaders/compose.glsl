@@ -111,7 +111,7 @@ Pixel fetch(ivec2 q) {
     if (x.a > 0.0) {
         // the camera's look on the object (its share of Irpv): gain and saturation in linear light
         vec2 t = tone_at(q);
-        float y = dot(x.c, vec3(0.2126, 0.7152, 0.0722));
+        float y = dot(x.c, LUMA);
         vec3 toned = t.x * max(vec3(y) + t.y * (x.c - vec3(y)), vec3(0.0));
         x.irpv += toned - x.c;
         x.c = toned;
@@ -219,7 +219,6 @@ uint pcg_hash(uint v) {
     uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
     return (word >> 22u) ^ word;
 }
-const vec3 LUMA = vec3(0.2126, 0.7152, 0.0722);
 vec3 quantize(vec3 srgb, vec3 photo, ivec2 p) {
     vec3 levels = (srgb - photo) * 255.0;
     if (all(lessThan(abs(levels), vec3(0.02)))) return photo;

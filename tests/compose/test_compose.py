@@ -185,9 +185,9 @@ def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
 def test_a_fading_shadow_leaves_no_step_of_a_whole_level(gl_clean):
     """A darkening that fades out to nothing across the region, on a dark road (8-bit 60: one
     level is 3.6 % of its light): each column's mean luminance follows the darkening (no bias),
-    the light changes from column to column by under half a level (rounded at random, not at one
-    threshold: no straight step where the fade crosses half a level), every channel stays within one level of
-    the exact composite, the luminance grain is under half a level (the channels are rounded
+    the light changes from column to column by under half a level (rounded at random, not at
+    one threshold: no straight step where the fade crosses half a level), every channel stays
+    within one level of the exact composite, the luminance grain is under 0.3 of a level (the channels are rounded
     each on its own, the luminance kept), and the photo is kept where the darkening is nil."""
     rng = np.random.default_rng(11)
     scene = _scene(rng, np.inf)
