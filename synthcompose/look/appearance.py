@@ -119,7 +119,7 @@ def _materials(model: Model) -> list[tuple[tuple[float, ...], float, float, floa
 
 def _skin(rgb) -> bool:
     r, g, b = rgb[:3]
-    return r > g > b > 0.01 and 1.5 <= r / b <= 6.0 and 0.1 <= 0.2126 * r + 0.7152 * g + 0.0722 * b <= 0.7
+    return r > g > b > 0.01 and 1.5 <= r / b <= 6.0 and 0.1 <= float(LUM @ np.array([r, g, b], float)) <= 0.7
 
 
 _FOUND: dict[tuple[str, str], list] = {}

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synthcompose.colour import LUM
 from synthcompose.lighting.solar import elevations_at
 
 from .scene import StreetScene, Vec3
@@ -62,7 +63,7 @@ class SceneLight:
     @staticmethod
     def _unit_luminance(rgb: tuple[float, float, float]) -> np.ndarray:
         c = np.asarray(rgb, np.float64)
-        return c / float(c @ np.array([0.2126, 0.7152, 0.0722]))
+        return c / float(c @ LUM)
 
     def rgb(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(sky, ground, sun) linear RGB irradiances: sky + sun * sin(elevation) = intensity

@@ -45,7 +45,7 @@ def camera_look(rgb: np.ndarray, seed: int) -> np.ndarray:
     gains = np.array([rng.uniform(*RED_GAIN), 1.0, rng.uniform(*BLUE_GAIN)], np.float32)
     keep = np.float32(rng.uniform(*SATURATION))
     lin = srgb_to_linear(np.clip(rgb, 0.0, 255.0) / np.float32(255.0)).astype(np.float32)
-    grey = lin @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    grey = lin @ LUM.astype(np.float32)
     lin = grey[..., None] + keep * (lin - grey[..., None])
     flare = np.float32(rng.uniform(*FLARE))
     lin = (np.float32(exposure) * np.power(lin, np.float32(gamma)) + flare) * gains
