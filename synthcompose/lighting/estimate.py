@@ -87,6 +87,9 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         # caster its side and height): a high sun, whose shadow falls short and under the
         # object, is the least wrong guess (a shadow thrown the wrong way is seen)
         sun.el = max(sun.el, UNSURE_ELEVATION)
+        if site is not None:  # the side of the axis where the sun can stand highest
+            sun.az = unsure_side(site, sun.az)
+            cues["sun_side_by_site"] = True
     if sun.sunny and site is not None:  # never higher than the sun stands there on any day
         there = site.elevations(sun.az)
         if len(there):
@@ -130,6 +133,22 @@ def estimate_lighting(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
         exposure=float(exposure), confidence=float(confidence), ground_levels=levels,
         shadow_log_ratio=float(delta) if sun.sunny else 0.0, ground_shadowed=sun.shaded is not None,
         evidence=evidence, cues=cues)
+
+
+def unsure_side(site: SunSite, azimuth: float) -> float:
+    """Where no cue tells on which side of its axis the sun stands: of ``azimuth`` and the
+    opposite one, the side where the sun can stand highest at the photo's site (its shadows the
+    shortest: thrown the wrong way, the least seen); ``azimuth`` where both reach as high.
+
+    Seen from Germany a sun behind a camera heading east can stand at most ~23 degrees high late
+    in the day, one ahead of it ~38 in the morning (leverkusen_000052): the fallback's 70
+    degrees clipped to the side's highest gave a shadow 2.4 times its caster's height, thrown
+    towards whichever side came first."""
+    def highest(az: float) -> float:
+        e = site.elevations(az)
+        return float(e.max()) if len(e) else -1.0
+    other = (azimuth + 180.0) % 360.0
+    return other if highest(other) > highest(azimuth) + 0.5 else azimuth
 
 
 @dataclass(frozen=True, eq=False)

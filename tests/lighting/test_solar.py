@@ -41,3 +41,26 @@ def test_a_vehicle_azimuth_turns_with_the_heading():
     assert site.compass(90.0) == pytest.approx(0.0)  # left (the vehicle frame's y): north
     assert site.compass(-90.0) == pytest.approx(180.0)  # right: south
     assert not len(site.elevations(90.0)) and len(site.elevations(270.0))
+
+
+def test_an_untold_side_is_the_one_where_the_sun_can_stand_highest():
+    """Where no cue tells the sun's side of a shadow axis, the estimate takes the side where the
+    sun stands highest at the site: its shadow the shortest, the least seen if it is the wrong
+    side. Heading east-north-east at 51 degrees north, the axis 149/329 (vehicle frame) points
+    west-south-west / east-south-east: the sun stands at most ~24 degrees high in the WSW
+    (evenings) and ~38 in the ESE (mornings)."""
+    from synthcompose.lighting.estimate import unsure_side
+
+    site = SunSite(latitude=51.0, heading=69.0)
+    low, high = site.elevations(149.3).max(), site.elevations(329.3).max()
+    assert low < 26.0 < 36.0 < high
+    assert unsure_side(site, 149.3) == pytest.approx(329.3)
+    assert unsure_side(site, 329.3) == pytest.approx(329.3)
+    # an axis along the meridian's mirror image (due east / due west): both sides as high, kept
+    east_west = SunSite(latitude=51.0, heading=0.0)
+    assert unsure_side(east_west, 90.0) == pytest.approx(90.0)
+    assert unsure_side(east_west, 270.0) == pytest.approx(270.0)
+    # heading north: ahead (vehicle azimuth 0) the sun never stands, behind (180, south) it does
+    north = SunSite(latitude=51.0, heading=0.0)
+    assert unsure_side(north, 0.0) == pytest.approx(180.0)
+    assert unsure_side(north, 180.0) == pytest.approx(180.0)
