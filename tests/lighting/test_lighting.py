@@ -251,6 +251,29 @@ def test_objects_in_a_real_shadow_get_no_sun():
     assert overcast.sun_visibility(7, grey * 0.01) == 1.0
 
 
+def test_a_footway_darker_than_the_roads_shadow_lies_in_shadow():
+    """No paving is darker than asphalt in the shade: a footway measured below the road's shadow
+    level was measured in shadow (leverkusen_000038: the houses' shade all along the footway,
+    the sun on the road), and what stands there gets no sun; a kind above it is read as before."""
+    from dataclasses import replace
+
+    from synthcompose.lighting.estimate import kinds_in_shade
+
+    step = math.log(0.4)
+    levels = dict(kinds_in_shade(((7, 0.1), (8, 0.015), (22, 0.06)), step))
+    assert levels[7] == 0.1 and levels[22] == 0.06
+    assert levels[8] == pytest.approx(0.015 / 0.4)
+    assert kinds_in_shade(((8, 0.015),), step) == ((8, 0.015),)  # no road to read against
+    assert kinds_in_shade(((7, 0.1), (8, 0.015)), 0.0) == ((7, 0.1), (8, 0.015))
+    light = SceneLight(sun_azimuth_deg=-150.0, sun_elevation_deg=45.0, sun_fraction=0.65)
+    est, _, _ = estimate(1, light)
+    est = replace(est, shadow_log_ratio=step, ground_levels=tuple(levels.items()), ground_shadowed=False)
+    grey = np.ones(3) / (np.ones(3) @ LUM)
+    assert est.sun_visibility(8, grey * 0.015) == 0.0  # the footway as it was measured: in shadow
+    assert est.sun_visibility(8, grey * 0.015 / 0.4) == 1.0  # a sunlit patch of it
+    assert est.sun_visibility(22, grey * 0.06) == 1.0
+
+
 def test_the_sun_mask_reads_unlabelled_pixels_against_the_roads_level():
     """Pixels no label names (no disparity at the left border, ground the surfaces left out):
     in a real shadow they get no sun, as the road beside them does, so an inserted shadow is not
