@@ -61,6 +61,7 @@ class PairCheck:
     within_1px_measurable: float  # of those, share within 1 px of the written disparity
     median_error_px: float  # median |matcher - written| over the matched
     within_1px_both_views: float  # within_1px over the matched pixels the right camera sees too
+    within_1px_measurable_both_views: float  # within_1px_measurable over the pixels the right camera sees too
     real_matched: int  # the frame's own cars and people (labels): matched pixels
     real_within_1px: float  # of those, within 1 px of the input disparity (the same matcher)
     real_within_1px_measurable: float
@@ -147,7 +148,7 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     d_in = sgbm(left_in, right_in)
     texture = measurable(left_out)
     matched, within, matched_m, within_m, median = _agreement(d_out, written, objects, texture)
-    within_both = _agreement(d_out, written, objects & seen_by_both(written), texture)[1]
+    _, within_both, _, within_both_m, _ = _agreement(d_out, written, objects & seen_by_both(written), texture)
     # the same matcher on the frame's own cars and people, against the input's disparity
     real_matched, real_within, real_within_m = 0, float("nan"), float("nan")
     if ident.path(inputs, "labelIds").exists():
@@ -176,6 +177,7 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     keep = np.zeros_like(both)
     keep[rows[inside], cols[inside]] = ~right_touch[rows[inside], target[inside]]
     same = np.abs(d_out[keep] - d_in[keep]) <= 1.0
-    return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, within_both, real_matched,
+    return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, within_both,
+                     within_both_m, real_matched,
                      real_within, real_within_m, at, off, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
                      int(right_changed.sum()))
