@@ -188,6 +188,7 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
             vis = decode_rle(obj["mask_rle"])
             cars.append({"frame": ident.name, "distance": obj["distance_m"], "width": width,
                          "under": shadowlook.under(res.rgb, m, ground & ~(objects & ~m), objects),
+                         "edge": shadowlook.under_edge(res.rgb, m, ground & ~(objects & ~m), objects),
                          "outline": line, "rough": look.shadow_blotchiness(src.rgb, res.rgb, vis, objects),
                          "angle": angle, "sunny": sunny, "sky_outline": sky_line,
                          "sky_rough": look.shadow_blotchiness(src.rgb, sky_out, vis, objects)})
@@ -196,7 +197,10 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
                 m = ref.instance_ids == inst
                 xs = np.nonzero(m.any(axis=0))[0]
                 if xs.max() - xs.min() + 1 >= MIN_WIDTH:
-                    real.append({"frame": ident.name, "under": shadowlook.under(src.rgb, m, ground, objects)})
+                    z = depth[m & np.isfinite(depth)]
+                    real.append({"frame": ident.name, "under": shadowlook.under(src.rgb, m, ground, objects),
+                                 "edge": shadowlook.under_edge(src.rgb, m, ground, objects),
+                                 "distance": float(np.median(z)) if len(z) else None})
         frames.append({"frame": ident.name, "label": labels.get(_frame_key(ident.name), "?"), "sunny": sunny,
                        "edge_m": plan_cue.get("edge_length_m"), "azimuth": light.get("sun_azimuth_deg"),
                        "elevation": light.get("sun_elevation_deg"), "real_dir": real_dir,
@@ -219,12 +223,18 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
               f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
               f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
               f"{' '.join(f'{a:.0f}' for a in ang)}{' | whole ' if whole else ''}{' '.join(f'{a:.0f}' for a in whole)} {mark}")
-    print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'outline':>7} {'rough':>6} {'angle':>6}"
-          f" {'sky outline':>11} {'sky rough':>9}")
+    print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'edge':>6} {'outline':>7} {'rough':>6}"
+          f" {'angle':>6} {'sky outline':>11} {'sky rough':>9}")
     for c in cars:
         fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
-        print(f"{c['frame']:<28} {c['distance']:5.1f} {c['width']:5d} {fmt(c['under']):>6} {fmt(c['outline']):>7} "
+        print(f"{c['frame']:<28} {c['distance']:5.1f} {c['width']:5d} {fmt(c['under']):>6} {fmt(c.get('edge'), 3):>6} "
+              f"{fmt(c['outline']):>7} "
               f"{fmt(c['rough']):>6} {fmt(c['angle'], 0):>6} {fmt(c.get('sky_outline')):>11} {fmt(c.get('sky_rough')):>9}")
+    if real:
+        print(f"\n{'real car (>= 150 px)':<28} {'dist':>5} {'under':>6} {'edge':>6}")
+        for r in real:
+            fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
+            print(f"{r['frame']:<28} {fmt(r.get('distance'), 1):>5} {fmt(r['under']):>6} {fmt(r.get('edge'), 3):>6}")
     sunny_l = [f for f in seen.values() if f["label"] == "sunny"]
     over_l = [f for f in seen.values() if f["label"] == "overcast"]
     angles = [a for f in frames if f["sunny"] for a in f["angles"]]
@@ -249,6 +259,8 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         "angles_within_15_whole_on_frames_labelled_sunny": f"{sum(a <= ANGLE_OK for a in whole_l)}/{len(whole_l)}",
         **_whole_by_kind(frames),
         "under_inserted": _summary(unders), "under_real": _summary(real_u),
+        "edge_inserted": _summary([c["edge"] for c in cars if c.get("edge") is not None]),
+        "edge_real": _summary([r["edge"] for r in real if r.get("edge") is not None]),
         "outline_over_0.2": f"{sum(v > 0.2 for v in outl)}/{len(outl)}",
         "outline_over_0.2_frames_not_called_sunny": f"{sum(v > 0.2 for v in outl_dull)}/{len(outl_dull)}",
         "rough_le_0.3": f"{sum(v <= 0.3 for v in rough)}/{len(rough)}",

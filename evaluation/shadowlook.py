@@ -3,6 +3,8 @@ sun and the ground contact are judged by (the look's other measures: :mod:`synth
 
 * :func:`under` - the ground right under an object's bottom edge against the ground a little
   further down: a real car darkens the road at its foot (ratio below 1);
+* :func:`under_edge` - how sharply the ground brightens below the object's bottom edge, per row
+  (real cars and inserted ones alike);
 * :func:`outline` - straight lines in the ratio output / input near an inserted object, the
   edges of a shadow receiver ("a faint box on the road"), in units of the object's width;
 * :func:`real_shadow_orientation` and :func:`shadow_orientation` - the orientation on the
@@ -28,6 +30,8 @@ from synthcompose.colour import LUM, SRGB8_TO_LINEAR
 UNDER_NEAR, UNDER_FAR = (2, 8), (20, 40)
 #: the share of the object's width (its middle) whose columns are measured
 UNDER_MIDDLE = 0.6
+#: rows under the object's lowest pixel whose brightening :func:`under_edge` measures
+EDGE_ROWS = 60
 #: the outline measure's settings: ratio blur (pixels), scale to 8 bits, Canny thresholds, the
 #: objects grown by (pixels), probabilistic Hough (threshold, shortest line, largest gap)
 OUTLINE_BLUR, OUTLINE_SCALE, OUTLINE_CANNY = 1.0, 200.0, (4, 8)
@@ -87,6 +91,39 @@ def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndar
     if len(near) < n_need or len(far) < n_need:
         return None
     return float(np.median(near) / max(np.median(far), 1e-6))
+
+
+def under_edge(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndarray | None = None) -> float | None:
+    """How sharply the ground brightens below an object's bottom edge: per column of the middle
+    :data:`UNDER_MIDDLE` of its width, the ground's luminance over :data:`EDGE_ROWS` rows below
+    its lowest pixel over that of the last third of them; the largest rise per row of the
+    columns' median profile (in units of the far ground). The same for a real car and an
+    inserted one: the outline measure finds a line where this rise runs straight along the
+    car's bottom (its Canny thresholds are a rise of about 0.005 per pixel); None without
+    enough ground below."""
+    ys, xs = np.nonzero(mask)
+    if len(xs) < 20:
+        return None
+    H, W = mask.shape
+    x0, x1 = int(xs.min()), int(xs.max())
+    pad = (1.0 - UNDER_MIDDLE) / 2 * (x1 - x0 + 1)
+    bottom = np.full(W, -1)
+    np.maximum.at(bottom, xs, ys)
+    y = _luminance(rgb)
+    blocked = others if others is not None else mask
+    profiles = []
+    for c in range(int(math.ceil(x0 + pad)), int(math.floor(x1 - pad)) + 1):
+        rows = np.arange(bottom[c] + 1, bottom[c] + 1 + EDGE_ROWS)
+        if bottom[c] < 0 or rows[-1] >= H:
+            continue
+        if (ground[rows, c] & ~blocked[rows, c]).mean() < 0.9:
+            continue
+        far = float(np.median(y[rows[2 * EDGE_ROWS // 3:], c]))
+        profiles.append(y[rows, c] / max(far, 1e-6))
+    if len(profiles) < 10:
+        return None
+    p = np.median(np.array(profiles), axis=0)
+    return float(np.max(p[2:] - p[:-2]) / 2)
 
 
 def outline(src: np.ndarray, out: np.ndarray, masks: list[np.ndarray],
