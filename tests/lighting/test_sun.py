@@ -239,6 +239,27 @@ def test_the_under_measure_and_the_labels_file(tmp_path):
         shadowlook.read_sun_labels(f)
 
 
+def test_the_under_edge_measures_how_sharply_the_ground_brightens_below_an_object():
+    """The ground's rise per row below an object's bottom edge, over the far ground's level: a
+    step of half the light over one row reads about a quarter (a central difference over two
+    rows), the same fade spread over 20 rows about a fortieth; flat ground 0."""
+    lum = np.full((200, 300), 0.1, np.float32)
+    mask = np.zeros((200, 300), bool)
+    mask[50:100, 100:200] = True
+
+    def srgb(y):
+        return np.clip(np.rint(np.asarray(linear_to_srgb(y)) * 255), 0, 255).astype(np.uint8)[..., None].repeat(3, axis=2)
+
+    sharp, soft = lum.copy(), lum.copy()
+    sharp[100:110] = 0.05
+    soft[100:130] = 0.05 + 0.05 * np.clip((np.arange(100, 130) - 110) / 20.0, 0, 1)[:, None]
+    ground = ~mask
+    assert shadowlook.under_edge(srgb(sharp), mask, ground) == pytest.approx(0.25, abs=0.03)
+    assert shadowlook.under_edge(srgb(soft), mask, ground) == pytest.approx(0.025, abs=0.01)
+    assert shadowlook.under_edge(srgb(lum), mask, ground) == pytest.approx(0.0, abs=0.01)
+    assert shadowlook.under_edge(srgb(lum), mask, np.zeros_like(ground)) is None  # no ground below
+
+
 def test_the_cast_shadow_fit_finds_the_direction_a_box_throws_its_shadow():
     """A top-down plan (a cell a pixel, 5 cm): a car's footprint and the shadow a box throws along
     an azimuth; the fit reads that azimuth back, whatever the occlusion shadow beside it."""
