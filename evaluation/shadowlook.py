@@ -58,6 +58,19 @@ def annotated(mask: np.ndarray) -> np.ndarray:
     return out.astype(bool) | mask
 
 
+def _bottom_columns(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(the columns of the middle :data:`UNDER_MIDDLE` of the object's width, (W,) its lowest
+    row per column, -1 where none); None for fewer than 20 pixels."""
+    ys, xs = np.nonzero(mask)
+    if len(xs) < 20:
+        return None
+    x0, x1 = int(xs.min()), int(xs.max())
+    pad = (1.0 - UNDER_MIDDLE) / 2 * (x1 - x0 + 1)
+    bottom = np.full(mask.shape[1], -1)
+    np.maximum.at(bottom, xs, ys)
+    return np.arange(int(math.ceil(x0 + pad)), int(math.floor(x1 - pad)) + 1), bottom
+
+
 def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndarray | None = None) -> float | None:
     """Median luminance (linear) of the ground :data:`UNDER_NEAR` rows below the object's lowest
     pixel, per column of the middle :data:`UNDER_MIDDLE` of its width, over that :data:`UNDER_FAR`
@@ -65,17 +78,11 @@ def under(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np.ndar
     annotated (a real car's instance mask; an inserted one's :func:`annotated`); ``ground``: the
     pixels that are ground (labels or found surfaces); ``others``: pixels of any object, kept
     out of the bands."""
-    ys, xs = np.nonzero(mask)
-    if len(xs) < 20:
+    found = _bottom_columns(mask)
+    if found is None or len(found[0]) < 3:
         return None
-    H, W = mask.shape
-    x0, x1 = int(xs.min()), int(xs.max())
-    pad = (1.0 - UNDER_MIDDLE) / 2 * (x1 - x0 + 1)
-    cols = np.arange(int(math.ceil(x0 + pad)), int(math.floor(x1 - pad)) + 1)
-    if len(cols) < 3:
-        return None
-    bottom = np.full(W, -1)
-    np.maximum.at(bottom, xs, ys)
+    cols, bottom = found
+    H = mask.shape[0]
     y = _luminance(rgb)
     blocked = others if others is not None else mask
     near, far = [], []
@@ -101,18 +108,15 @@ def under_edge(rgb: np.ndarray, mask: np.ndarray, ground: np.ndarray, others: np
     inserted one: the outline measure finds a line where this rise runs straight along the
     car's bottom (its Canny thresholds are a rise of about 0.005 per pixel); None without
     enough ground below."""
-    ys, xs = np.nonzero(mask)
-    if len(xs) < 20:
+    found = _bottom_columns(mask)
+    if found is None:
         return None
-    H, W = mask.shape
-    x0, x1 = int(xs.min()), int(xs.max())
-    pad = (1.0 - UNDER_MIDDLE) / 2 * (x1 - x0 + 1)
-    bottom = np.full(W, -1)
-    np.maximum.at(bottom, xs, ys)
+    cols, bottom = found
+    H = mask.shape[0]
     y = _luminance(rgb)
     blocked = others if others is not None else mask
     profiles = []
-    for c in range(int(math.ceil(x0 + pad)), int(math.floor(x1 - pad)) + 1):
+    for c in cols:
         rows = np.arange(bottom[c] + 1, bottom[c] + 1 + EDGE_ROWS)
         if bottom[c] < 0 or rows[-1] >= H:
             continue
