@@ -225,15 +225,14 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
               f"{' '.join(f'{a:.0f}' for a in ang)}{' | whole ' if whole else ''}{' '.join(f'{a:.0f}' for a in whole)} {mark}")
     print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'edge':>6} {'outline':>7} {'rough':>6}"
           f" {'angle':>6} {'sky outline':>11} {'sky rough':>9}")
+    fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
     for c in cars:
-        fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
         print(f"{c['frame']:<28} {c['distance']:5.1f} {c['width']:5d} {fmt(c['under']):>6} {fmt(c.get('edge'), 3):>6} "
               f"{fmt(c['outline']):>7} "
               f"{fmt(c['rough']):>6} {fmt(c['angle'], 0):>6} {fmt(c.get('sky_outline')):>11} {fmt(c.get('sky_rough')):>9}")
     if real:
         print(f"\n{'real car (>= 150 px)':<28} {'dist':>5} {'under':>6} {'edge':>6}")
         for r in real:
-            fmt = lambda v, p=2: "   -" if v is None else f"{v:.{p}f}"  # noqa: E731
             print(f"{r['frame']:<28} {fmt(r.get('distance'), 1):>5} {fmt(r['under']):>6} {fmt(r.get('edge'), 3):>6}")
     sunny_l = [f for f in seen.values() if f["label"] == "sunny"]
     over_l = [f for f in seen.values() if f["label"] == "overcast"]
