@@ -17,7 +17,9 @@ disparity and the photo.
    where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
    light's road colour is modelled from it too.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
-   road. **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
+   road; and the flat ground beyond a kerb found across the street (kerbs.py: the step up
+   from the gutter, which a road's camber hides from the height over the profile) at the
+   footway's height, unless as saturated as grass (no road beyond that kerb either). **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
    and more saturated than it, beside the road (a sign may stand there, a person does not walk there).
    Everything else is 0 (unlabelled).
 
@@ -36,6 +38,7 @@ from synthcompose.io.files import decode_disparity
 from synthcompose.labels import label_id
 
 from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_tilt
+from .kerbs import beyond_kerbs
 from .noise import measure_sigma
 
 ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
@@ -143,7 +146,16 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     road |= level & ~road & _between(road, ENCLOSED_PX)
     # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
     foot = _object_foot(smooth, z, sub.fy)
-    side = raised & ~green & ~road & ~foot
+    # the ground beyond a kerb seen across the street (a low kerb over a cambered road leaves
+    # the footway inside the level band: kerbs.py) is no road, and at the footway's height it
+    # is footway unless it is as saturated as grass (paving may be as grey as the asphalt, or
+    # a few b* units yellower)
+    with np.errstate(invalid="ignore"):
+        across = -(np.arange(w)[None, :] - sub.u0) * z / sub.fx  # metres left of the camera's line
+    beyond, kerbside = beyond_kerbs(smooth, flat, z, across, band)
+    kerbside &= ~grass & ~foot
+    road &= ~beyond
+    side = ((raised & ~green) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
         side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, models)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
