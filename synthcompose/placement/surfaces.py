@@ -19,7 +19,8 @@ disparity and the photo.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
    road; and the flat ground beyond a kerb found across the street (kerbs.py: the step up
    from the gutter, which a road's camber hides from the height over the profile) at the
-   footway's height, unless as saturated as grass (no road beyond that kerb either). **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
+   footway's height, unless as saturated as grass (no road beyond that kerb either).
+   **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
    and more saturated than it, beside the road (a sign may stand there, a person does not walk there).
    Everything else is 0 (unlabelled).
 
