@@ -44,9 +44,9 @@ BEYOND = 0.1
 #: straight about this far)
 KERB_REACH = 10.0
 #: along the line, slices of this depth (metres) each see the step again (at least half a kerb
-#: between the KERB_SIDE metres either side of the line, with SLICE_LEAST pixels on each):
-#: where the kerb ends (a junction, a driveway lowered to the road) the ground beyond is not
-#: footway
+#: between the KERB_SIDE metres either side of the line, with SLICE_LEAST pixels on each; a
+#: slice with fewer is skipped): from the first slice that sees no step (a corner, a driveway
+#: lowered to the road) on, the ground beyond the line is not this kerb's footway
 SLICE, KERB_SIDE, SLICE_LEAST = 2.0, 0.8, 30
 
 
@@ -127,9 +127,11 @@ def beyond_kerbs(height: np.ndarray, flat: np.ndarray, z: np.ndarray, y: np.ndar
             with np.errstate(invalid="ignore"):
                 zs = (z >= s0) & (z < s0 + SLICE)
             lo, hi = height[inside & zs], height[outside & zs]
-            if len(lo) >= SLICE_LEAST and len(hi) >= SLICE_LEAST \
-                    and np.median(hi) - np.median(lo) >= KERB_STEP / 2:
-                kept |= zs
+            if len(lo) < SLICE_LEAST or len(hi) < SLICE_LEAST:
+                continue  # not seen there (a parked car in front): the kerb may go on
+            if np.median(hi) - np.median(lo) < KERB_STEP / 2:
+                break  # the kerb ends (a corner): nothing beyond is its footway
+            kept |= zs
         past &= kept
         beyond |= past
         with np.errstate(invalid="ignore"):
