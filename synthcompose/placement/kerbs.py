@@ -37,8 +37,8 @@ GUTTER_LOW, GUTTER_HIGH = -0.12, 0.08
 KERB_FROM = 1.0
 #: the two bands' kerbs are the same line if their offsets differ by at most this (metres)
 KERB_AGREE = 0.6
-#: the ground beyond a kerb's line, from this far past it, at the footway's height (within the
-#: noise band at its depth, and never under the gutter's height plus half the step)
+#: the ground beyond a kerb's line starts this far past it (metres); the footway there is the
+#: flat ground within the noise band at its depth of the footway's height
 BEYOND = 0.1
 #: farthest depth the line is carried to beyond the farther band's middle (a street runs
 #: straight about this far)
@@ -69,9 +69,9 @@ def lateral_profile(height: np.ndarray, ok: np.ndarray, y: np.ndarray) -> tuple[
     return (np.arange(lo, hi + 1) * BIN), med
 
 
-def kerb_in(offsets: np.ndarray, med: np.ndarray, side: int) -> tuple[float, float, float] | None:
+def kerb_in(offsets: np.ndarray, med: np.ndarray, side: int) -> tuple[float, float] | None:
     """The first kerb outwards on ``side`` (+1 left, -1 right) of a lateral profile: (offset of
-    its line, the gutter's height, the footway's height), or None."""
+    its line, the footway's height), or None."""
     rise, plateau = int(round(KERB_RISE / BIN)), int(round(KERB_PLATEAU / BIN))
     order = np.argsort(side * offsets)
     y, h = offsets[order], med[order]
@@ -88,7 +88,7 @@ def kerb_in(offsets: np.ndarray, med: np.ndarray, side: int) -> tuple[float, flo
             continue
         if np.nanmax(np.abs(after - top)) > PLATEAU_SPREAD:
             continue
-        return float(y[i] + side * BIN / 2), gutter, top
+        return float(y[i] + side * BIN / 2), top
     return None
 
 
@@ -115,7 +115,7 @@ def beyond_kerbs(height: np.ndarray, flat: np.ndarray, z: np.ndarray, y: np.ndar
                      and abs(found[k][0] - found[k + 1][0]) <= KERB_AGREE), None)
         if pair is None:
             continue
-        (y0, _, t0), (y1, _, t1) = found[pair], found[pair + 1]
+        (y0, t0), (y1, t1) = found[pair], found[pair + 1]
         d0, d1 = depths[pair], depths[pair + 1]
         with np.errstate(invalid="ignore"):
             across = side * (y - (y0 + (y1 - y0) / (d1 - d0) * (z - d0)))  # metres past the line
