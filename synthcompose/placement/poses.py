@@ -166,13 +166,44 @@ class PoseTests:
                 return Rejection("footprint off the ground plane (step or kerb)",
                                  f"{level:.0%} of the seen footprint on the pose's plane, "
                                  f"needs {rules.min_footprint_allowed:.0%}")
-        # no kerb line of the surface under the footprint
+        if (why := self._along_the_ray(m)) is not None:
+            return why
+        # no kerb line of the surface under the part that stands on the ground
+        fl, fw = standing_footprint(self.class_name, self.extents)
         c, edges, reach = m[:3, 3], self.edges, self.reach
         close = edges[(np.abs(edges[:, 0] - c[0]) <= reach + 1) & (np.abs(edges[:, 1] - c[1]) <= reach + 1)]
         if len(close):
             local = (close - c[:2]) @ m[:2, :2]
-            if ((np.abs(local[:, 0]) <= l / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= w / 2 + KERB_CLEARANCE)).any():
+            if ((np.abs(local[:, 0]) <= fl / 2 + KERB_CLEARANCE) & (np.abs(local[:, 1]) <= fw / 2 + KERB_CLEARANCE)).any():
                 return Rejection("footprint crosses a kerb line", f"a kerb within {KERB_CLEARANCE} m of the footprint")
+        return None
+
+    def _along_the_ray(self, m: np.ndarray) -> Rejection | None:
+        """A footprint shorter along the camera's ray than the stereo's depth band at its
+        distance (a person or a pole far away) is judged as that long: there its own pixels
+        and those of the ground a band nearer or farther are one, and a footprint just in front
+        of a kerb across the view (a cross street's far side) is seen on the footway beyond it.
+        The allowed share over that stretch, as over the footprint."""
+        fl, fw = standing_footprint(self.class_name, self.extents)
+        c = m[:3, 3]
+        band = float(self.noise.depth_band(self.depth_of(c), 0.0))
+        ray = c[:2] - self.frame.camera.position[:2]
+        ray = ray / max(float(np.hypot(*ray)), 1e-6)
+        cos, sin = abs(float(m[:2, 0] @ ray)), abs(float(m[:2, 1] @ ray))
+        along_half, across_half = fl / 2 * cos + fw / 2 * sin, fl / 2 * sin + fw / 2 * cos
+        if along_half >= band:
+            return None
+        a, b = np.meshgrid(np.linspace(-band, band, 21), np.linspace(-across_half, across_half, 5))
+        plan = c[:2] + a.ravel()[:, None] * ray + b.ravel()[:, None] * np.array([-ray[1], ray[0]])
+        local = np.column_stack([(plan - c[:2]) @ m[:2, :2], np.zeros(len(plan))])
+        s = footprint_support(self.frame, m, local, self.allowed_ids, self.noise)
+        if s is None or not s["seen"].any():
+            return None
+        share = float(s["allowed"][s["seen"]].mean())
+        if share < self.rules.min_footprint_allowed:
+            return Rejection("footprint off the allowed surface",
+                             f"{share:.0%} of the ground within the depth band ({band:.1f} m) along the view "
+                             f"on {'/'.join(self.allowed)}")
         return None
 
     def ground(self, point: np.ndarray, dz: float = 0.3) -> tuple[GroundFit | None, Rejection | None]:

@@ -37,17 +37,23 @@ def surfaces_for(class_name: str, given=None) -> tuple[str, ...]:
 #: classes that stand on a pole: only the pole's foot needs ground under it (its plate may
 #: reach over a verge's edge, a wall's foot or a hedge), a square this wide, metres
 POLE_MOUNTED, POLE_FOOT = ("traffic sign", "traffic light", "pole"), 0.3
+#: a person stands on their feet: the box's length (the stride) by at most this width (two
+#: feet at hip width, in shoes), metres; the swinging or hanging arms may reach over a kerb's
+#: edge, as a real pedestrian's do
+PERSON_STANCE = 0.4
 #: classes that stand plumb whatever the ground's slope (a vehicle lies on the ground's plane)
 UPRIGHT = POLE_MOUNTED + ("person",)
 
 
 def standing_footprint(class_name: str, extents) -> tuple[float, float]:
     """(length, width) of the part of an object of ``extents`` that stands on the ground,
-    centred like its box: the whole footprint, or a pole-mounted object's pole foot (the
-    cast's and the built-in signs stand their pole under the plate's middle)."""
+    centred like its box: the whole footprint, a pole-mounted object's pole foot (the cast's
+    and the built-in signs stand their pole under the plate's middle) or a person's feet."""
     l, w = float(extents[0]), float(extents[1])
     if class_name in POLE_MOUNTED:
         return min(l, POLE_FOOT), min(w, POLE_FOOT)
+    if class_name == "person":
+        return l, min(w, PERSON_STANCE)
     return l, w
 
 

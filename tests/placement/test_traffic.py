@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from synthcompose.geometry.depth import disparity_to_depth, make_frame
+from synthcompose.geometry.depth import back_project, disparity_to_depth, make_frame
 from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, check_pose, footprint_corners, footprints_overlap, place_object
 from synthcompose.placement.lanes import _carriageway_lanes
 from synthcompose.placement.poses import PoseTests
-from synthcompose.placement.rules import POLE_FOOT, standing_footprint
+from synthcompose.placement.rules import PERSON_STANCE, POLE_FOOT, standing_footprint
 from synthcompose.placement.street import Carriageway, StreetLine, find_street
 from synthcompose.placement.traffic import SIGN_EDGE, sign_distance
 from synthcompose.synthetic import StreetKind, random_scene, render_scene
@@ -260,3 +260,28 @@ def test_no_vehicle_in_the_lanes_of_a_street_that_ends_ahead():
             for seed in range(3):
                 got = place_object(frame, "car", (4.4, 1.8, 1.5), np.random.default_rng(seed), RULES)
                 assert got.placement is None or got.placement.traffic.where != "carriageway"
+
+
+def test_a_person_needs_the_footway_under_their_feet_not_under_their_arms(street):
+    """A walking person's box is as wide as their swinging arms (0.75 m here); only their feet
+    (standing_footprint: at most PERSON_STANCE wide) need the footway and the kerb's clearance.
+    A footway narrowed to 1.1 m between its kerb and a verge (too narrow for the whole box and
+    the clearance on both sides) still holds them within 25 m (farther, the stereo's depth band
+    is wider than the footway), feet on it, and the checker agrees."""
+    scene, frame = street
+    walker = (0.8, 0.75, 1.75)
+    assert standing_footprint("person", walker) == (0.8, PERSON_STANCE)
+    labels = frame.label_ids.copy()
+    v, u = np.nonzero((labels == label_id("sidewalk")) & np.isfinite(frame.depth))
+    _, xyz = back_project(frame.depth, frame.camera, v, u)
+    beyond = np.abs(scene.to_street(xyz[:, 0], xyz[:, 1])[1]) > scene.road_half_width + 1.1
+    labels[v[beyond], u[beyond]] = label_id("terrain")
+    narrow = make_frame(frame.depth, labels, frame.camera, photo=frame.photo)
+    rng, rules = np.random.default_rng(3), PlacementRules(distance=(7.0, 25.0))
+    placed = [r.placement for r in (place_object(narrow, "person", walker, rng, rules, pose_hint="walking")
+                                    for _ in range(3)) if r.placement is not None]
+    assert placed
+    for p in placed:
+        feet = footprint_corners(p.matrix, standing_footprint("person", walker))
+        assert all(str(scene.surface_label(x, y)) == "sidewalk" for x, y in feet), "a foot off the footway"
+        assert check_pose(narrow, "person", walker, p.matrix, rules) is None
