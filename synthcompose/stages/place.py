@@ -205,29 +205,49 @@ def where_it_stands(class_name: str) -> str:
     return orientation_for(class_name)
 
 
+#: a slot whose object found no place gets up to this many substitutes, each its own draw
+REDRAWS = 2
+#: vehicles that need more free road than a car: one of them finding no place does not mean
+#: that a car finds none
+LARGE_VEHICLES = ("bus", "truck", "caravan", "trailer")
+
+
+def stands_like(class_name: str, failed: str) -> bool:
+    """Whether an object of ``class_name`` needs what one of class ``failed`` found nowhere in
+    the frame: the same kind of place in traffic (:func:`where_it_stands`), and at least its
+    size (a car may fit in a lane where a bus did not)."""
+    if where_it_stands(class_name) != where_it_stands(failed):
+        return False
+    return not (failed in LARGE_VEHICLES and class_name not in LARGE_VEHICLES)
+
+
 def _redraw(o: PlaceOptions, weights: np.ndarray, prep: Prepared, objects: list, failures: list[NotPlaced],
             taken: set[int], trace: list | None) -> list[NotPlaced]:
-    """Each object that found no place is replaced, once, by one drawn by ``weights`` from the
-    manifest's objects that stand elsewhere in traffic (:func:`where_it_stands`) than any that
-    failed in this frame: a street whose lanes are taken gets a person or a sign instead of a
-    third car, a frame without footway a car instead of a person. The failures, each with what
-    replaced it (or the substitute's own failure), for the record."""
-    failed = {where_it_stands(f.class_name) for f in failures}
+    """Each object that found no place is replaced by one drawn by ``weights`` from the
+    manifest's objects that need something else than any that failed in this frame
+    (:func:`stands_like`): a street whose lanes are taken gets a person or a sign instead of a
+    third car, a frame without footway a car instead of a person, a lane too short for a bus a
+    car. A substitute that finds no place either is followed by another, up to ``REDRAWS``.
+    The failures, each with what replaced it (or its substitutes' own failures), for the record."""
+    failed = [f.class_name for f in failures]
     out: list[NotPlaced] = []
     for f in failures:
-        pick = [i for i, s in enumerate(o.objects) if weights[i] > 0 and where_it_stands(s.class_name) not in failed]
-        if not pick:
-            out.append(f)
-            continue
-        p = weights[pick] / weights[pick].sum()
-        spec = o.objects[pick[int(prep.rng.choice(len(pick), p=p))]]
-        done = _place_one(o, prep, spec, objects, taken, None, trace)
-        if isinstance(done, PlacedObject):
-            objects.append(done)
-            out.append(replace(f, replaced_by=spec.name))
-        else:
-            failed.add(where_it_stands(spec.class_name))
-            out += [f, replace(done, substitute_for=f.name)]
+        tried: list[NotPlaced] = []
+        for _ in range(REDRAWS):
+            pick = [i for i, s in enumerate(o.objects)
+                    if weights[i] > 0 and not any(stands_like(s.class_name, c) for c in failed)]
+            if not pick:
+                break
+            p = weights[pick] / weights[pick].sum()
+            spec = o.objects[pick[int(prep.rng.choice(len(pick), p=p))]]
+            done = _place_one(o, prep, spec, objects, taken, None, trace)
+            if isinstance(done, PlacedObject):
+                objects.append(done)
+                f = replace(f, replaced_by=spec.name)
+                break
+            failed.append(spec.class_name)
+            tried.append(replace(done, substitute_for=f.name))
+        out += [f, *tried]
     return out
 
 

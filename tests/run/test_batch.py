@@ -12,6 +12,7 @@ from synthcompose.cli import main
 from synthcompose.io.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
 from synthcompose.synthetic import make_sample
+from synthcompose.stages.place import stands_like
 
 from ..helpers import OUT_KINDS, H, W, write_manifest
 from ..tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
@@ -265,3 +266,13 @@ def test_an_object_without_a_place_is_replaced_by_one_that_stands_elsewhere(data
     manifest = write_manifest(tmp_path / "n.json", root, none, objects=objects, redraw_unplaced=False)
     assert main(["batch", str(manifest), "--no-progress"]) == 0
     assert all(json.loads(ident.path(none, "record").read_text())["objects"] == [] for ident in ids)
+
+
+def test_a_car_may_stand_in_for_a_bus_that_found_no_lane_not_the_other_way():
+    """The redraw's rule: a substitute must need something else than what failed; a car needs
+    less road than a bus or a lorry, so it may replace one; a bus may not replace a car, nor a
+    person a person."""
+    assert not stands_like("car", "bus") and not stands_like("car", "truck")
+    assert stands_like("bus", "car") and stands_like("car", "car") and stands_like("truck", "bus")
+    assert stands_like("person", "person") and not stands_like("person", "car")
+    assert not stands_like("traffic sign", "person")
