@@ -11,8 +11,8 @@ import pytest
 from synthcompose.cli import main
 from synthcompose.io.dataset import ImageSetId, read_image_set
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR
-from synthcompose.synthetic import make_sample
 from synthcompose.stages.place import stands_like
+from synthcompose.synthetic import make_sample
 
 from ..helpers import OUT_KINDS, H, W, write_manifest
 from ..tolerances import OBJECT_PIXELS_CHANGED_MIN, PHOTO_CHANGE_COLS_PX, PHOTO_CHANGE_ROWS_PX
