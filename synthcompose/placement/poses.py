@@ -137,7 +137,6 @@ class PoseTests:
         """Tests in the image: object on screen, footprint on seen, allowed ground (and, with
         ``heights``, on the pose's plane: no step or kerb under it), no kerb line under it."""
         frame, rules, camera = self.frame, self.rules, self.frame.camera
-        l, w, _ = self.extents
         H, W = frame.shape
         corners_o = frame.to_optical(box_corners(m, self.extents))
         if (corners_o[:, 2] <= 1.0).any():
@@ -166,8 +165,9 @@ class PoseTests:
                 return Rejection("footprint off the ground plane (step or kerb)",
                                  f"{level:.0%} of the seen footprint on the pose's plane, "
                                  f"needs {rules.min_footprint_allowed:.0%}")
-        if (why := self._along_the_ray(m)) is not None:
-            return why
+            # on the final pose only (the search's first, level pose would ask it again)
+            if (why := self._along_the_ray(m)) is not None:
+                return why
         # no kerb line of the surface under the part that stands on the ground
         fl, fw = standing_footprint(self.class_name, self.extents)
         c, edges, reach = m[:3, 3], self.edges, self.reach
