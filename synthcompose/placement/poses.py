@@ -194,8 +194,8 @@ class PoseTests:
         if along_half >= band:
             return None
         a, b = np.meshgrid(np.linspace(-band, band, 21), np.linspace(-across_half, across_half, 5))
-        plan = c[:2] + a.ravel()[:, None] * ray + b.ravel()[:, None] * np.array([-ray[1], ray[0]])
-        local = np.column_stack([(plan - c[:2]) @ m[:2, :2], np.zeros(len(plan))])
+        offsets = a.ravel()[:, None] * ray + b.ravel()[:, None] * np.array([-ray[1], ray[0]])
+        local = np.column_stack([offsets @ m[:2, :2], np.zeros(len(offsets))])
         s = footprint_support(self.frame, m, local, self.allowed_ids, self.noise)
         if s is None or not s["seen"].any():
             return None
