@@ -49,3 +49,78 @@ def _ends(frame: Frame, street: Street) -> bool:
         return False
     covered = np.unique(np.floor((s[sel] - cw.right) / 0.25).astype(np.int64))
     return bool(len(covered) * 0.25 >= END_SHARE * width)
+
+
+#: the kerb across the end: at least this far off the street's direction (degrees); kerb points
+#: within END_KERB_BAND of it (metres) over at least END_KERB_LENGTH (metres); END_KERB_TRIES
+#: lines tried
+END_KERB_TURN, END_KERB_BAND, END_KERB_LENGTH, END_KERB_TRIES = 40.0, 0.3, 2.5, 120
+#: a point this far past the end kerb (metres) stands on its far footway
+END_PAST = 0.2
+
+
+def end_kerb(frame: Frame, street: Street):
+    """The kerb across the ego carriageway where its street ends (the cross street's far kerb):
+    a road.RoadLine fitted to the kerb points within the ego carriageway's width ahead (the
+    kerbs along the street, the junction's corners, lie outside it and make the line fitted
+    around a point there ambiguous), or None where the street does not end or no such line
+    across it is seen. Cached per street."""
+    return frame.derived(("end_kerb", id(street)), lambda: _end_kerb(frame, street))
+
+
+def past_end(frame: Frame, line, xy: np.ndarray) -> np.ndarray:
+    """(N,) bool: which ground-plan points (N, 2) (V) lie past the end kerb ``line`` (end_kerb),
+    on its far side from the camera, by more than END_PAST (the kerb's own stones)."""
+    def off(p):
+        p = np.atleast_2d(np.asarray(p, float))
+        return (p[:, 0] - line.centre[0]) * -np.sin(line.angle) + (p[:, 1] - line.centre[1]) * np.cos(line.angle)
+    side = np.sign(off([frame.camera.x, frame.camera.y])[0])
+    return -side * off(xy) > END_PAST
+
+
+def _end_kerb(frame: Frame, street: Street):
+    import math
+
+    from synthcompose.labels import label_id
+
+    from .road import RoadLine, surface_edges
+
+    if not street_ends(frame, street):
+        return None
+    edges = surface_edges(frame, np.array([label_id("road")]))
+    if not len(edges):
+        return None
+    a, s = street.to_road(edges)
+    cw = street.ego
+    sel = (a > 0.0) & (a <= END_NEAR + 5.0) & (s >= cw.right) & (s <= cw.left)
+    if sel.sum() < 20:
+        return None
+    inside = edges[sel]
+    # the line across the ego carriageway's width that covers most of it (a painted stop line
+    # or a gutter strip taken for ground covers less): all lines through two points at once,
+    # each scored by the 0.25 m steps along it that hold a point
+    rng = np.random.default_rng(0)
+    i, j = rng.integers(len(inside), size=(2, END_KERB_TRIES))
+    d = inside[j] - inside[i]
+    length = np.hypot(d[:, 0], d[:, 1])
+    ok = length >= 1.0
+    if not ok.any():
+        return None
+    d, i = d[ok] / length[ok, None], i[ok]
+    rel = inside[None, :, :] - inside[i][:, None, :]
+    on = np.abs(rel[..., 0] * d[:, 1, None] - rel[..., 1] * d[:, 0, None]) <= END_KERB_BAND
+    along = np.floor((rel[..., 0] * d[:, 0, None] + rel[..., 1] * d[:, 1, None]) / 0.25).astype(np.int64)
+    score = np.array([len(np.unique(along[k][on[k]])) for k in range(len(i))])
+    k = int(np.argmax(score))
+    on = on[k]
+    if score[k] * 0.25 < END_KERB_LENGTH:
+        return None
+    pts = inside[on]
+    centre = pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
+    angle = math.atan2(vt[0][1], vt[0][0])
+    angle = angle + math.pi if angle <= -math.pi / 2 else angle - math.pi if angle > math.pi / 2 else angle
+    turn = abs(math.degrees(math.remainder(angle - float(street.heading(float(np.median(a[sel])))), math.pi)))
+    if turn < END_KERB_TURN:
+        return None
+    return RoadLine(angle, 0.0, int(on.sum()), False, (float(centre[0]), float(centre[1])))

@@ -53,9 +53,17 @@ SLICE, KERB_SIDE, SLICE_LEAST = 2.0, 0.8, 30
 def lateral_profile(height: np.ndarray, ok: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(offsets, median heights) of the pixels ``ok`` in bins of :data:`BIN` metres across
     (``y``: offset to the left of the camera's line), NaN where a bin has too few."""
-    bins = np.rint(y[ok] / BIN).astype(np.int64)
+    return binned_profile(height, ok, y, -8.0, 8.0)
+
+
+def binned_profile(height: np.ndarray, ok: np.ndarray, key: np.ndarray, lo_m: float,
+                   hi_m: float, least: int = BIN_LEAST) -> tuple[np.ndarray, np.ndarray]:
+    """(bin centres, median heights) of the pixels ``ok`` in bins of :data:`BIN` metres of
+    ``key`` (an offset across or a depth) from ``lo_m`` to ``hi_m``, NaN where a bin has fewer
+    than ``least``."""
+    bins = np.rint(key[ok] / BIN).astype(np.int64)
     h = height[ok]
-    lo, hi = -int(8.0 / BIN), int(8.0 / BIN)
+    lo, hi = int(round(lo_m / BIN)), int(round(hi_m / BIN))
     keep = (bins >= lo) & (bins <= hi)
     bins, h = bins[keep] - lo, h[keep]
     order = np.argsort(bins, kind="stable")
@@ -64,7 +72,7 @@ def lateral_profile(height: np.ndarray, ok: np.ndarray, y: np.ndarray) -> tuple[
     med = np.full(hi - lo + 1, np.nan)
     for k in range(hi - lo + 1):
         a, b = starts[k], starts[k + 1]
-        if b - a >= BIN_LEAST:
+        if b - a >= least:
             med[k] = np.median(h[a:b])
     return (np.arange(lo, hi + 1) * BIN), med
 

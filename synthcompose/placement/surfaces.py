@@ -40,6 +40,7 @@ from synthcompose.labels import label_id
 
 from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_tilt
 from .kerbs import beyond_kerbs
+from .kerbs_ahead import kerb_ahead
 from .noise import measure_sigma
 
 ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
@@ -155,6 +156,13 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
         across = -(np.arange(w)[None, :] - sub.u0) * z / sub.fx  # metres left of the camera's line
     beyond, kerbside = beyond_kerbs(smooth, flat, z, across, band)
     kerbside &= ~grass & ~foot
+    # and beyond a kerb across the view ahead (kerbs_ahead.py: where the street ends at a cross
+    # street's far footway); its face spans rows, so that footway touches the road only across it
+    with np.errstate(invalid="ignore", divide="ignore"):
+        over_plane = camera.z * (1.0 - plane / disp)  # over the camera's own ground plane
+    past, ahead = kerb_ahead(over_plane.astype(np.float32), flat, z, across, band)
+    beyond |= past
+    ahead &= ~green & ~foot
     road &= ~beyond
     side = ((raised & ~green) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
@@ -167,6 +175,8 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # beside the road: touching it (a kerb between them), not across grass or a wall
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
     side = _beside(side, near_road)
+    ahead = cv2.morphologyEx(ahead.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    side |= ahead & ~road
     # a grass verge or island: flat ground up a kerb beside the road, yellow-green and more
     # saturated than the road (level green is left out: sunlit asphalt and a crossing's
     # paving read as yellower too, and a sign must not stand on the carriageway)

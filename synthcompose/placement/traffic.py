@@ -23,7 +23,7 @@ import numpy as np
 from synthcompose.geometry.depth import Frame
 from synthcompose.labels import label_id
 
-from .ends import street_ends
+from .ends import end_kerb, past_end, street_ends
 from .lanes import Lane, lane_at, lanes, sun_direction_of
 from .parked import parked_rows
 from .road import road_line
@@ -252,6 +252,14 @@ def footway_kerb(frame: Frame, street: Street, point: np.ndarray, hand: int):
     (+1 along the heading), ``where``, side of the street) or None when no kerb is near."""
     a, s = (float(v[0]) for v in street.to_road(point[None, :2]))
     best = None
+    if street_ends(frame, street):
+        # the street ends ahead: its carriageway runs into the cross street, whose far footway
+        # lies across the view beyond the kerb seen there (ends.py)
+        line = end_kerb(frame, street)
+        if line is not None and past_end(frame, line, point[None, :2])[0]:
+            return _kerb_of(line, line.offset_of(point[:2]), hand)
+        if street.ego.contains(s):
+            return None
     for cw in street.carriageways:
         if cw.contains(s):
             return None  # inside a carriageway (the kerb's own stones)
@@ -266,16 +274,28 @@ def footway_kerb(frame: Frame, street: Street, point: np.ndarray, hand: int):
         lane = lane_at(lanes(frame, street, hand), kerb - side * 0.3)
         direction = lane.direction if lane is not None else sun_direction_of(cw, kerb - side * 0.3, hand)
         return d, -side * n, heading, direction, "footway", "left" if side > 0 else "right"
+    return _kerb_line(frame, point, hand)
+
+
+def _kerb_line(frame: Frame, point: np.ndarray, hand: int):
+    """footway_kerb's answer from the kerb line seen near ``point`` (road.road_line), or None."""
     line = road_line(frame, np.array([label_id("road")]), point)
-    if line is None or line.ambiguous or abs(line.offset) > FOOTWAY_REACH:
+    if line is None or line.ambiguous:
+        return None
+    return _kerb_of(line, line.offset, hand)
+
+
+def _kerb_of(line, offset: float, hand: int):
+    """footway_kerb's answer for a footway point ``offset`` metres off a kerb ``line`` (road.RoadLine)."""
+    if abs(offset) > FOOTWAY_REACH:
         return None
     heading = line.angle
     n = np.array([-math.sin(heading), math.cos(heading)])
-    towards = -n if line.offset > 0 else n
+    towards = -n if offset > 0 else n
     # right-hand: the traffic beside a kerb has the kerb on its right
     t = np.array([-towards[1], towards[0]]) * hand
     direction = 1 if t @ np.array([math.cos(heading), math.sin(heading)]) > 0 else -1
-    return abs(line.offset), towards, heading, direction, "footway", "left" if line.offset > 0 else "right"
+    return abs(offset), towards, heading, direction, "footway", "left" if offset > 0 else "right"
 
 
 def person_spot(frame: Frame, street: Street, point: np.ndarray, rng: np.random.Generator,
@@ -351,6 +371,12 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
         return keep
     if orientation == "facing-traffic":
         near = np.zeros(len(s), bool)
+        line = end_kerb(frame, street) if street_ends(frame, street) else None
+        if line is not None:  # the cross street's far footway, beyond the kerb across the view
+            sd = sign_distance(extents)
+            d = np.abs((xy[:, 0] - line.centre[0]) * -math.sin(line.angle)
+                       + (xy[:, 1] - line.centre[1]) * math.cos(line.angle))
+            near |= past_end(frame, line, xy) & (d >= sd - 0.3) & (d <= sd + SIGN_EDGE + 0.3)
         for cw in street.carriageways:
             for kerb, side in ((cw.right, -1), (cw.left, 1)):
                 d = side * (s - kerb)
@@ -361,6 +387,9 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
     keep = np.ones(len(s), bool)
     for cw in street.carriageways:
         keep &= (s < cw.right - KERB_CLEARANCE - 0.1) | (s > cw.left + KERB_CLEARANCE + 0.1)
+    line = end_kerb(frame, street) if street_ends(frame, street) else None
+    if line is not None:  # a street that ends: the cross street's far footway is across it
+        keep |= past_end(frame, line, xy)
     return keep
 
 

@@ -103,8 +103,8 @@ def _ground_planes(scene: StreetScene) -> list[tuple[float, float, object, int]]
     if scene.camber == 0.0:
         road = [(c0, 0.0, scene.street_is_road, PID_ROAD)]
     else:
-        road = [(c0, -scene.camber, lambda a, b: (b >= 0) & (b <= w), PID_ROAD),
-                (c0, scene.camber, lambda a, b: (b < 0) & (b >= -w), PID_ROAD),
+        road = [(c0, -scene.camber, lambda a, b: (b >= 0) & (b <= w) & scene.street_before_end(a), PID_ROAD),
+                (c0, scene.camber, lambda a, b: (b < 0) & (b >= -w) & scene.street_before_end(a), PID_ROAD),
                 (edge, 0.0, lambda a, b: (np.abs(b) > w) & scene.street_in_crossing(a), PID_ROAD)]
         if not scene.has_road:
             road = []
@@ -132,13 +132,20 @@ def cast_ground(scene: StreetScene, buf: Buffers) -> None:
             t = np.float32(sign * w - ob) / db
             z, a = oz + t * dz, oa + t * da
             bottom = scene.road_edge_height(a)
-            hit = (sign * db > 0) & (z >= bottom) & (z <= bottom + k) & ~scene.street_in_crossing(a)
+            hit = (sign * db > 0) & (z >= bottom) & (z <= bottom + k) & ~scene.street_in_crossing(a) \
+                & scene.street_before_end(a)
             _commit(buf, full, t, hit, PID_KERB, 2 if sign > 0 else 3)
-        if scene.crossing is not None:
-            t = np.float32(scene.crossing[1] - oa) / da
+        # across the view: the far side of the crossing (beside the street), and the street's end
+        # (across its road: a T-junction's far kerb; the road's camber under it)
+        for a_face, across in ((None if scene.crossing is None else scene.crossing[1], lambda b: np.abs(b) > w),
+                               (scene.street_end, lambda b: np.abs(b) <= w)):
+            if a_face is None:
+                continue
+            t = np.float32(a_face - oa) / da
             z, b = oz + t * dz, ob + t * db
-            bottom = float(scene.road_edge_height(scene.crossing[1]))
-            hit = (da > 0) & (z >= bottom) & (z <= bottom + k) & (np.abs(b) > w)
+            bottom = scene.crown_z + scene.slope * a_face - scene.camber * np.minimum(np.abs(b), w)
+            top = float(scene.sidewalk_height(a_face))
+            hit = (da > 0) & (z >= bottom) & (z <= top) & across(b)
             _commit(buf, full, t, hit, PID_KERB, 0)
 
 

@@ -20,7 +20,9 @@ centre-line height ``crown_z`` at a = 0::
 * road: ``|b| <= road_half_width`` and the cross street spanning ``crossing = (a0, a1)`` (every
   b); dashed centre line, solid parking-lane lines, a stop line, all in T.
 * sidewalks: everything else; their vertical kerb faces (b = +-w, and a = a1 at the far side
-  of the cross street) are sidewalk too.
+  of the cross street) are sidewalk too. With ``street_end`` the street's road ends there (a
+  T-junction seen head-on): its kerb face runs across the whole width and the ground beyond is
+  footway.
 * buildings: rows of vertical boxes from ``|b| = road_half_width + sidewalk_width`` outwards,
   broken by the cross street; optionally a row across the far end of the street. On a graded
   street their bases sink to the lowest ground under them (the ground hides the rest).
@@ -155,6 +157,8 @@ class StreetScene:
     centre_line      : the dashed centre line is drawn
     street_kind      : None, or a :mod:`.streets` kind (one-way, bays, zebra crossing)
     zebra            : (a0, a1) of a zebra crossing over the road, or None
+    street_end       : the street ends at this a (a T-junction seen head-on: ``crossing`` up to it,
+                       a kerb face across the whole width there and footway beyond), or None
     sun              : unit vector towards the sun in V
     noise_seed       : seed of the image noise, cloud pattern and disparity holes
     street_heading   : radians; the street direction in V is (cos, sin) of it
@@ -188,6 +192,7 @@ class StreetScene:
     centre_line: bool = True  # the dashed centre line is drawn (not on a one-way street)
     street_kind: str | None = None  # streets.StreetKind's name: lanes, bays and crossings as traffic uses them
     zebra: tuple[float, float] | None = None  # a zebra crossing's a-range, or None
+    street_end: float | None = None  # the street's road ends at this a (a T-junction), or None
 
     # ------------------------------------------------------------------ frames
     @property
@@ -246,7 +251,12 @@ class StreetScene:
         a, b = np.broadcast_arrays(np.asarray(a), np.asarray(b))
         if not self.has_road:
             return np.zeros(a.shape, bool)
-        return (np.abs(b) <= self.road_half_width) | self.street_in_crossing(a)
+        return ((np.abs(b) <= self.road_half_width) & self.street_before_end(a)) | self.street_in_crossing(a)
+
+    def street_before_end(self, a: np.ndarray) -> np.ndarray:
+        """Bool array: street coordinate a lies before the street's end (everywhere without one)."""
+        a = np.asarray(a)
+        return np.ones(a.shape, bool) if self.street_end is None else a < self.street_end
 
     def road_edge_height(self, a: np.ndarray) -> np.ndarray:
         """Height of the road at its edges |b| = w (and over the cross street) at street a."""
@@ -277,6 +287,8 @@ class StreetScene:
         a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
         out = np.full(a.shape, "building", "<U8")
         walk = (np.abs(b) <= self.road_half_width + self.sidewalk_width) | self.street_in_crossing(a)
+        if self.street_end is not None:  # the far footway across the end, as deep as the side ones
+            walk |= (a >= self.street_end) & (a <= self.street_end + self.sidewalk_width)
         out[walk] = "sidewalk"
         out[self.street_is_road(a, b)] = "road"
         return out

@@ -64,7 +64,10 @@ def _sidewalk_albedo(scene: StreetScene, x: np.ndarray, y: np.ndarray, depth: np
     base = base * (1 - 0.18 * grout)
     rgb = np.stack([base + 2, base, base - 4], axis=1)
     if scene.has_road:
-        kerbstone = (np.abs(y) - scene.road_half_width < 0.16) & ~scene.street_in_crossing(x)
+        w = scene.road_half_width
+        kerbstone = (np.abs(y) - w < 0.16) & (np.abs(y) > w) & ~scene.street_in_crossing(x)
+        if scene.street_end is not None:  # the kerb across the street's end
+            kerbstone |= (np.abs(y) <= w) & (x - scene.street_end < 0.16)
         rgb[kerbstone] = (178 + 5 * _cell_noise(x, y, 1.0, 6))[kerbstone, None]
     return rgb
 

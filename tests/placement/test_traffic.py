@@ -285,3 +285,92 @@ def test_a_person_needs_the_footway_under_their_feet_not_under_their_arms(street
         feet = footprint_corners(p.matrix, standing_footprint("person", walker))
         assert all(str(scene.surface_label(x, y)) == "sidewalk" for x, y in feet), "a foot off the footway"
         assert check_pose(narrow, "person", walker, p.matrix, rules) is None
+
+
+def _t_junction(seed: int):
+    """A T-junction seen head-on, near (leverkusen_000045's layout): a street 7 m wide whose road
+    ends 15 m ahead at the far kerb of a cross street 6 m wide (``street_end``), the footway
+    beyond 2.5 m deep, a house front across behind it. The far footway's paving gets the
+    asphalt's colours (pixels of the road drawn at random): only its kerb tells it from the road.
+    Returns the scene, its rendered arrays and the far footway's pixels."""
+    from dataclasses import replace
+
+    from synthcompose.synthetic.scene import Box
+
+    scene = random_scene(np.random.default_rng([21, seed]), W, H)
+    a0 = float(scene.camera.x)
+    end, walk = a0 + 15.0, 2.5
+    house = Box((end + walk, -40.0, -1.0), (end + walk + 8.0, 40.0, 9.0), "building", label_id("building"),
+                texture="facade")
+    scene = replace(scene, road_half_width=3.5, sidewalk_width=walk, parking_lane=1.0, boxes=(house,), poles=(),
+                    crossing=(a0 + 9.0, end), street_end=end)
+    arrays = render_scene(scene, stereo="realistic", photo="realistic")
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    v, u = np.nonzero((truth == label_id("sidewalk")) & np.isfinite(z))
+    _, xyz = back_project(z, scene.camera, v, u)
+    a, b = scene.to_street(xyz[:, 0], xyz[:, 1])
+    far = (a > end + 0.05) & (np.abs(b) < 8.0)
+    footway = np.zeros(truth.shape, bool)
+    footway[v[far], u[far]] = True
+    rgb = arrays["rgb"].copy()
+    road = np.argwhere((truth == label_id("road")) & (z > 8.0) & (z < end))
+    pick = road[np.random.default_rng(seed).integers(len(road), size=int(footway.sum()))]
+    rgb[footway] = rgb[pick[:, 0], pick[:, 1]]
+    return scene, dict(arrays, rgb=rgb), footway
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_street_that_ends_at_a_t_junction_has_its_far_footway_found_and_used(seed):
+    """At a T-junction seen head-on the far footway runs across the view, paved like the road:
+    without labels it is found by its kerb across the view (kerbs_ahead.py), and people and
+    signs stand there (the street's own carriageway runs into the cross street: no lane of it
+    holds them, the kerb across does), on the footway, as the checker agrees."""
+    from synthcompose.placement.ends import end_kerb, street_ends
+    from synthcompose.placement.surfaces import SIDEWALK, find_surfaces
+
+    scene, arrays, footway = _t_junction(seed)
+    found = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
+    assert footway.sum() > 2000
+    assert (found[footway] == SIDEWALK).mean() > 0.25, "the far footway is not found"
+    assert (found[footway] == label_id("road")).mean() < 0.05, "the far footway is taken for road"
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), found, scene.camera, labelled=False,
+                       photo=arrays["rgb"])
+    street = find_street(frame)
+    assert street_ends(frame, street) and end_kerb(frame, street) is not None
+    end = scene.street_end
+    for cls, size in (("person", SIZES["person"]), ("traffic sign", SIZES["traffic sign"])):
+        got = [place_object(frame, cls, size, np.random.default_rng(k), RULES) for k in range(2)]
+        placed = [g.placement for g in got if g.placement is not None]
+        assert placed, f"no {cls} placed: {got[0].rejections}"
+        for p in placed:
+            a, _ = scene.to_street(*np.asarray(p.matrix)[:2, 3])
+            assert end < a < end + scene.sidewalk_width, f"a {cls} off the far footway ({a - end:.2f} m past the kerb)"
+            assert p.traffic.where == "footway"
+            assert check_pose(frame, cls, size, p.matrix, RULES) is None
+
+
+def test_no_kerb_across_the_view_where_the_street_goes_on(monkeypatch):
+    """The kerb across the view is taken only where the street ends: not on streets going on past
+    their cross street, and not on the T-junction with its house taken away (a raised table or
+    an island across the road leaves the road beyond it open: nothing stands across it)."""
+    from dataclasses import replace
+
+    from synthcompose.placement import kerbs_ahead, surfaces
+
+    seen = []
+
+    def spy(ground, flat, z, y, band):
+        seen.append(kerbs_ahead.find_kerb_ahead(ground, flat, z, y))
+        return kerbs_ahead.kerb_ahead(ground, flat, z, y, band)
+
+    monkeypatch.setattr(surfaces, "kerb_ahead", spy)
+    for seed in (0, 1):
+        scene = random_scene(np.random.default_rng([21, seed]), W, H, street="two-way")
+        arrays = render_scene(scene, stereo="realistic", photo="realistic")
+        surfaces.find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera)
+        ended, _, _ = _t_junction(seed)
+        open_end = replace(ended, boxes=())
+        arrays = render_scene(open_end, stereo="realistic", photo="realistic")
+        surfaces.find_surfaces(arrays["disparity"], arrays["rgb"], open_end.camera)
+    assert seen == [None] * 4
