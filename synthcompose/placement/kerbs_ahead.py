@@ -107,23 +107,37 @@ def kerb_ahead(ground: np.ndarray, flat: np.ndarray, z: np.ndarray, y: np.ndarra
 
 def step_ahead(depths: np.ndarray, med: np.ndarray) -> tuple[float, float, float, float] | None:
     """The nearest kerb of a depth profile (bin centres, median heights; NaN where unseen): (its
-    depth, the footway's height there, the footway's grade, the road's height there), or None."""
+    depth, the footway's height there, the footway's grade, the road's height there), or None.
+    Every candidate depth's two lines at once, by running sums over the bins."""
     seen = np.isfinite(med)
+    n_bins = len(depths)
+    x = np.where(seen, depths, 0.0)
+    y = np.where(seen, med, 0.0)
+    sums = [np.concatenate([[0.0], np.cumsum(v)]) for v in (seen.astype(float), x, y, x * x, x * y)]
     plateau = int(round(KERB_PLATEAU / BIN))
-    for d in depths:
-        before = seen & (depths >= d - STEP_BEFORE) & (depths <= d - STEP_GAP)
-        after = seen & (depths >= d + STEP_GAP) & (depths <= d + STEP_GAP + KERB_PLATEAU)
-        if before.sum() < 4 or after.sum() < 0.6 * plateau:
-            continue
-        road = np.polyfit(depths[before], med[before], 1)
-        walk = np.polyfit(depths[after], med[after], 1)
-        if abs(walk[0]) > FOOTWAY_GRADE:
-            continue
-        if np.max(np.abs(med[after] - np.polyval(walk, depths[after]))) > PLATEAU_SPREAD:
-            continue
-        step = float(np.polyval(walk, d) - np.polyval(road, d))
-        if KERB_STEP <= step <= KERB_TOP:
-            return float(d), float(np.polyval(walk, d)), float(walk[0]), float(np.polyval(road, d))
+    idx = np.arange(n_bins)
+
+    def window(lo_m: float, hi_m: float):
+        # bins with depths in [d + lo_m, d + hi_m] for each candidate d: [start, stop) per bin
+        lo = np.clip(idx + int(math.ceil(lo_m / BIN - 1e-6)), 0, n_bins)
+        hi = np.clip(idx + int(math.floor(hi_m / BIN + 1e-6)) + 1, 0, n_bins)
+        n, sx, sy, sxx, sxy = (s[np.maximum(hi, lo)] - s[lo] for s in sums)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slope = (n * sxy - sx * sy) / (n * sxx - sx * sx)
+            icpt = (sy - slope * sx) / n
+        return lo, np.maximum(hi, lo), n, slope, icpt
+
+    _, _, nb, rb, ri = window(-STEP_BEFORE, -STEP_GAP)
+    alo, ahi, na, wb, wi = window(STEP_GAP, STEP_GAP + KERB_PLATEAU)
+    with np.errstate(invalid="ignore"):
+        step = (wb * depths + wi) - (rb * depths + ri)
+        ok = (nb >= 4) & (na >= 0.6 * plateau) & (np.abs(wb) <= FOOTWAY_GRADE) & (step >= KERB_STEP) & (step <= KERB_TOP)
+    for i in np.flatnonzero(ok):
+        sel = seen[alo[i]:ahi[i]]
+        res = med[alo[i]:ahi[i]][sel] - (wb[i] * depths[alo[i]:ahi[i]][sel] + wi[i])
+        if np.max(np.abs(res)) <= PLATEAU_SPREAD:
+            d = float(depths[i])
+            return d, float(wb[i] * d + wi[i]), float(wb[i]), float(rb[i] * d + ri[i])
     return None
 
 
@@ -131,12 +145,12 @@ def find_kerb_ahead(ground: np.ndarray, flat: np.ndarray, z: np.ndarray, y: np.n
     """The kerb across the view ahead (arguments as kerb_ahead's), or None."""
     ok_all = flat & np.isfinite(ground) & np.isfinite(z) & (np.abs(ground) < 1.0)
     with np.errstate(invalid="ignore"):
-        ok_all &= (z >= AHEAD_DEPTH[0]) & (z <= AHEAD_DEPTH[1])
+        ok_all &= (z >= AHEAD_DEPTH[0]) & (z <= AHEAD_DEPTH[1]) & (np.abs(y) < AHEAD_REACH + AHEAD_SLICE)
+    g, zz, yy = ground[ok_all], z[ok_all], y[ok_all]
     seen = []
     for yc in np.arange(-AHEAD_REACH, AHEAD_REACH + 1e-9, AHEAD_SLICE):
-        with np.errstate(invalid="ignore"):
-            ok = ok_all & (np.abs(y - yc) < AHEAD_SLICE / 2)
-        found = step_ahead(*binned_profile(ground, ok, z, *AHEAD_DEPTH, least=AHEAD_BIN_LEAST))
+        ok = np.abs(yy - yc) < AHEAD_SLICE / 2
+        found = step_ahead(*binned_profile(g, ok, zz, *AHEAD_DEPTH, least=AHEAD_BIN_LEAST))
         if found is not None:
             seen.append((float(yc), *found))
     if len(seen) < AHEAD_LEAST:
