@@ -71,11 +71,8 @@ def end_kerb(frame: Frame, street: Street):
 def past_end(frame: Frame, line, xy: np.ndarray) -> np.ndarray:
     """(N,) bool: which ground-plan points (N, 2) (V) lie past the end kerb ``line`` (end_kerb),
     on its far side from the camera, by more than END_PAST (the kerb's own stones)."""
-    def off(p):
-        p = np.atleast_2d(np.asarray(p, float))
-        return (p[:, 0] - line.centre[0]) * -np.sin(line.angle) + (p[:, 1] - line.centre[1]) * np.cos(line.angle)
-    side = np.sign(off([frame.camera.x, frame.camera.y])[0])
-    return -side * off(xy) > END_PAST
+    side = np.sign(line.offset_of((frame.camera.x, frame.camera.y)))
+    return -side * line.offsets(np.atleast_2d(np.asarray(xy, float))) > END_PAST
 
 
 def _end_kerb(frame: Frame, street: Street):

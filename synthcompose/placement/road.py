@@ -26,8 +26,11 @@ class RoadLine:
 
     def offset_of(self, point) -> float:
         """Signed lateral offset of a ground-plan ``point`` from the line, metres."""
-        return float((point[0] - self.centre[0]) * -math.sin(self.angle)
-                     + (point[1] - self.centre[1]) * math.cos(self.angle))
+        return float(self.offsets(np.asarray(point, float)[None, :2])[0])
+
+    def offsets(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) signed lateral offsets of ground-plan points (N, 2) from the line, metres."""
+        return (xy[:, 0] - self.centre[0]) * -math.sin(self.angle) + (xy[:, 1] - self.centre[1]) * math.cos(self.angle)
 
 
 #: road lines are fitted once per cell of this size (metres) of the ground plan

@@ -371,11 +371,10 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
         return keep
     if orientation == "facing-traffic":
         near = np.zeros(len(s), bool)
-        line = end_kerb(frame, street) if street_ends(frame, street) else None
+        line = end_kerb(frame, street)
         if line is not None:  # the cross street's far footway, beyond the kerb across the view
             sd = sign_distance(extents)
-            d = np.abs((xy[:, 0] - line.centre[0]) * -math.sin(line.angle)
-                       + (xy[:, 1] - line.centre[1]) * math.cos(line.angle))
+            d = np.abs(line.offsets(xy))
             near |= past_end(frame, line, xy) & (d >= sd - 0.3) & (d <= sd + SIGN_EDGE + 0.3)
         for cw in street.carriageways:
             for kerb, side in ((cw.right, -1), (cw.left, 1)):
@@ -387,7 +386,7 @@ def traffic_candidates(frame: Frame, street: Street, xy: np.ndarray, orientation
     keep = np.ones(len(s), bool)
     for cw in street.carriageways:
         keep &= (s < cw.right - KERB_CLEARANCE - 0.1) | (s > cw.left + KERB_CLEARANCE + 0.1)
-    line = end_kerb(frame, street) if street_ends(frame, street) else None
+    line = end_kerb(frame, street)
     if line is not None:  # a street that ends: the cross street's far footway is across it
         keep |= past_end(frame, line, xy)
     return keep
