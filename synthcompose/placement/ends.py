@@ -80,7 +80,7 @@ def _end_kerb(frame: Frame, street: Street):
 
     from synthcompose.labels import label_id
 
-    from .road import RoadLine, surface_edges
+    from .road import RoadLine, line_through, surface_edges
 
     if not street_ends(frame, street):
         return None
@@ -112,11 +112,7 @@ def _end_kerb(frame: Frame, street: Street):
     on = on[k]
     if score[k] * 0.25 < END_KERB_LENGTH:
         return None
-    pts = inside[on]
-    centre = pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
-    angle = math.atan2(vt[0][1], vt[0][0])
-    angle = angle + math.pi if angle <= -math.pi / 2 else angle - math.pi if angle > math.pi / 2 else angle
+    centre, angle = line_through(inside[on])
     turn = abs(math.degrees(math.remainder(angle - float(street.heading(float(np.median(a[sel])))), math.pi)))
     if turn < END_KERB_TURN:
         return None

@@ -122,6 +122,19 @@ def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, ban
     return pts[i[best]], n[best], float(score[best])
 
 
+def line_through(pts: np.ndarray) -> tuple[np.ndarray, float]:
+    """The least-squares line through (N, 2) ground-plan points: (their mean, its direction angle
+    in (-pi/2, pi/2])."""
+    centre = pts.mean(axis=0)
+    _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
+    angle = math.atan2(vt[0][1], vt[0][0])
+    if angle <= -math.pi / 2:
+        angle += math.pi
+    elif angle > math.pi / 2:
+        angle -= math.pi
+    return centre, angle
+
+
 def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator | None = None,
                   radius: float = LINE_RADIUS, iterations: int = 80, band: float = 0.15) -> RoadLine | None:
     """RANSAC kerb line through the edge points within ``radius`` of ``point`` (ground plan);
@@ -139,14 +152,7 @@ def fit_road_line(edges: np.ndarray, point: np.ndarray, rng: np.random.Generator
     p0, n, score = found
     on_line = np.abs((near - p0) @ n) < band
     inl = near[on_line]
-    centre = inl.mean(axis=0)
-    _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
-    d = vt[0]
-    angle = math.atan2(d[1], d[0])
-    if angle <= -math.pi / 2:
-        angle += math.pi
-    elif angle > math.pi / 2:
-        angle -= math.pi
+    centre, angle = line_through(inl)
     normal = np.array([-math.sin(angle), math.cos(angle)])
     rival = _ransac_line(near[~on_line], rng, iterations, band, away_from=angle)
     ambiguous = rival is not None and rival[2] > 0.5 * score
