@@ -295,6 +295,10 @@ PEOPLE_FLAT_DEG = 2.0  # a flat foot's tilt
 PEOPLE_ARM_INSIDE_MAX = 0.05
 ROAD_BEYOND_SHADOW_MIN = 0.8  # sunny generated street: share of the sunlit road beyond a cast shadow found as road
 SIDEWALK_FOUND_PRECISION_SUNNY_MIN = 0.95  # sunny generated street: what is called sidewalk is sidewalk
+#: sunny generated street, the footway near the car in a cast shadow and beyond it in the sun: the
+#: share of its sunlit part within 30 m found (0.18 when sunlit paving, a few b* units yellower than
+#: the shaded asphalt, was grass; 0.49 joined to the shaded footway)
+SIDEWALK_SUNLIT_RECALL_MIN = 0.4
 #: generated streets, overcast: true sidewalk within 25 m found as sidewalk (0.00-0.22 with a pixel's own
 #: saturation and yellow alone as grass)
 SIDEWALK_FOUND_RECALL_MIN = 0.5

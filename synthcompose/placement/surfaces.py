@@ -19,7 +19,9 @@ disparity and the photo.
    **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
    road; and the flat ground beyond a kerb found across the street (kerbs.py: the step up
    from the gutter, which a road's camber hides from the height over the profile) at the
-   footway's height, unless as saturated as grass (no road beyond that kerb either).
+   footway's height, unless as saturated as grass (no road beyond that kerb either); and a
+   sunlit stretch of a footway found in the shade (yellower than the shaded road as grass is,
+   but no more saturated) where it joins that footway.
    **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
    and more saturated than it, beside the road (a sign may stand there, a person does not walk there).
    Everything else is 0 (unlabelled).
@@ -175,6 +177,11 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # beside the road: touching it (a kerb between them), not across grass or a wall
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
     side = _beside(side, near_road)
+    # a sunlit stretch of a footway found in shade: raised and flat like it, a few b* units
+    # yellower than the (shaded) road but no more saturated (sunlight, not grass), and joined to
+    # it; alone, such ground may be sunlit asphalt that the profile reads raised far off
+    sunlit = raised & green & ~grass & ~road & ~foot & ~_between(road, ENCLOSED_PX)
+    side = _joined(side, sunlit)
     ahead = cv2.morphologyEx(ahead.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     side |= ahead & ~road
     # a grass verge or island: flat ground up a kerb beside the road, yellow-green and more
@@ -204,6 +211,18 @@ def _beside(mask: np.ndarray, near_road: np.ndarray, least: int = 200) -> np.nda
     touches &= np.bincount(comp.ravel(), minlength=n) >= least
     touches[0] = False
     return touches[comp]
+
+
+def _joined(found: np.ndarray, more: np.ndarray, least: int = 200) -> np.ndarray:
+    """``found`` with the pixels of ``more`` whose 4-connected region of ``found | more`` holds
+    at least ``least`` pixels of ``found``."""
+    more = cv2.morphologyEx(more.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
+    n, comp = cv2.connectedComponents((found | more).astype(np.uint8), connectivity=4)
+    if n <= 1:
+        return found
+    keep = np.bincount(comp[found], minlength=n) >= least
+    keep[0] = False
+    return found | (more & keep[comp])
 
 
 def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:

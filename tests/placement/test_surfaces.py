@@ -19,6 +19,7 @@ from ..tolerances import (
     SIDEWALK_FOUND_PRECISION_MIN,
     SIDEWALK_FOUND_PRECISION_SUNNY_MIN,
     SIDEWALK_FOUND_RECALL_MIN,
+    SIDEWALK_SUNLIT_RECALL_MIN,
 )
 
 #: a low sun ahead-left: the left row's shadow covers the road near the car, the road beyond it
@@ -43,6 +44,24 @@ def test_found_road_runs_on_into_the_sun_beyond_a_cast_shadow():
     assert (labels[beyond] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
     side = labels == SIDEWALK
     assert side.sum() > 0 and (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_SUNNY_MIN
+
+
+def test_a_footway_runs_on_into_the_sun_beyond_a_cast_shadow():
+    """The footway near the car lies in the left row's shadow, beyond it in the sun: sunlit
+    paving is a few LAB b* units yellower than the shaded asphalt, as grass is, but no more
+    saturated, and joined to the shaded footway at its height it is footway too
+    (leverkusen_000055's right footway: found only in the shade, a sign had nowhere to stand far
+    enough to be seen whole)."""
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512, light=SUN)
+    arrays, sunlit = render_scene_sunlit(scene, stereo="realistic", photo="realistic")
+    labels = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    footway = (truth == SIDEWALK) & (z < 30)
+    assert (footway & sunlit).sum() > 2000 and (footway & ~sunlit).sum() > 2000
+    side = labels == SIDEWALK
+    assert side[footway & sunlit].mean() > SIDEWALK_SUNLIT_RECALL_MIN
+    assert (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_SUNNY_MIN
 
 
 def test_sunlit_asphalt_beside_the_shade_is_road_not_grass():
