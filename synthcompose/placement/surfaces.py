@@ -23,7 +23,7 @@ disparity and the photo.
    sunlit stretch of a footway found in the shade (yellower than the shaded road as grass is,
    but no more saturated) where it joins that footway.
    **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
-   and more saturated than it, beside the road (a sign may stand there, a person does not walk there).
+   and more saturated than it (or as saturated as grass), beside the road (a sign may stand there, a person does not walk there).
    Everything else is 0 (unlabelled).
 
 Deterministic: the same disparity and photo give the same labels (the checker recomputes them).
@@ -189,6 +189,8 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # paving read as yellower too, and a sign must not stand on the carriageway)
     verdant = (hsv[..., 0] >= 25) & (hsv[..., 0] <= VERGE_HUE_MAX) & (lab[..., 2] >= b_road + GRASS_YELLOW) \
         & (hsv[..., 1] >= s_road + VERGE_SATURATION)
+    # or as saturated as grass, if not yellower (dull grass, a strip under fallen leaves)
+    verdant |= grass & (hsv[..., 0] <= VERGE_HUE_MAX)
     verge = raised & verdant & ~road & ~side & ~foot & ~_between(road, ENCLOSED_PX)
     verge = cv2.morphologyEx(verge.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     verge = _beside(verge, near_road)

@@ -112,6 +112,31 @@ def test_grass_verges_are_found_beside_the_road_never_on_it():
     assert found > 0.3 * total
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_verge_as_saturated_as_grass_but_barely_yellower_is_terrain(seed):
+    """Dull grass or a strip under fallen leaves: as saturated as grass against the road, but
+    only 4 LAB b* units yellower (leverkusen_000043's leafy footway: +29 saturation, +4 b*;
+    real verges +3 to +6 b*). Up a kerb beside the road it is terrain, where a sign may stand;
+    before, it was neither terrain (not yellow enough) nor footway (grass), and lost."""
+    scene = random_scene(np.random.default_rng([31, seed]), 1024, 512, street="two-way" if seed % 2 else None)
+    arrays = render_scene(scene, stereo="realistic", photo="realistic")
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    strip, road = truth == SIDEWALK, truth == ROAD
+    lab = cv2.cvtColor(arrays["rgb"], cv2.COLOR_RGB2LAB).astype(np.float32)
+    lab[..., 0][strip] *= 0.4  # darker: the same chroma is a higher saturation
+    for c, shift in ((1, -3.0), (2, 4.0)):
+        lab[..., c][strip] += np.median(lab[..., c][road]) + shift - np.median(lab[..., c][strip])
+    rgb = cv2.cvtColor(np.clip(lab, 0, 255).astype(np.uint8), cv2.COLOR_LAB2RGB)
+    sat = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 1].astype(np.float32)
+    assert np.median(sat[strip]) - np.median(sat[road]) > GRASS_SATURATION
+    verge = find_surfaces(arrays["disparity"], rgb, scene.camera).labels == TERRAIN
+    near = strip & (z < 25)
+    assert verge[near].mean() > 0.3
+    assert (truth[verge] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_MIN
+    assert (truth[verge] == ROAD).mean() < 0.01
+
+
 def test_paving_a_shade_yellower_than_the_asphalt_is_not_grass():
     """The generated pavements are grey paving a few LAB b* units yellower than the asphalt and
     no more saturated (real paving: 0-5 b* units yellower, about 10 more saturated; real grass
