@@ -52,6 +52,9 @@ from .traffic import TRAFFIC_ORIENTATIONS, hand_of, person_spot, sign_spot, stre
 UP = np.array([0.0, 0.0, 1.0])
 #: candidates are drawn among every STRIDE-th pixel of each row and column
 STRIDE = 2
+#: a candidate whose object's top leaves the image even this much further away (metres) is
+#: not drawn when truncation is off (its point may move that far before the pose is tested)
+TOP_SLACK = 1.0
 
 
 def candidates(frame: Frame, allowed_ids: np.ndarray, distance: tuple[float, float]) -> "_Candidates":
@@ -86,6 +89,7 @@ class _Candidates:
         keep = (dist >= lo) & (dist <= hi)
         self.rows, self.cols, self.z = v[keep], u[keep], z[keep]
         self.xy = np.column_stack([ground_x[keep] + np.float32(cam.x), ground_y[keep] + np.float32(cam.y)])
+        self.ground_z = (x * m[2, 0] + y * m[2, 1] + z * m[2, 2] + m[2, 3])[keep]
         # room along the row (pixels) to the nearest other ground surface, or the image border
         left, right = _row_room(_blocking(frame.label_ids[::STRIDE, ::STRIDE], frame.labelled, allowed_ids))
         self.room = np.minimum(left, right)[v[keep] // STRIDE, u[keep] // STRIDE] * STRIDE
@@ -101,14 +105,25 @@ class _Candidates:
         pool when none has."""
         return self.subset(self.room >= 0.9 * self.camera.fx * half_size / self.z)
 
+    def top_in_image(self, frame: Frame, height: float) -> np.ndarray:
+        """(N,) bool: the candidates whose top, ``height`` metres over them, is seen below the
+        image's top row even TOP_SLACK metres further from the camera (a candidate is moved to
+        its lane's centre or the kerb before it is posed): a box whose top leaves the image is
+        not fully inside it."""
+        cam = self.camera
+        away = self.xy - np.array([cam.x, cam.y], np.float32)
+        away *= (TOP_SLACK / np.maximum(np.hypot(away[:, 0], away[:, 1]), 1e-3))[:, None]
+        top = np.column_stack([self.xy + away, self.ground_z + np.float32(height)]).astype(np.float64)
+        return cam.project(frame.to_optical(top))[:, 1] >= 0
+
     def subset(self, keep: np.ndarray) -> "_Candidates":
         """The candidates where ``keep`` (N,) holds; the same pool when none or all do."""
         if not keep.any() or keep.all():
             return self
         sub = object.__new__(_Candidates)
         sub.camera, sub.depth = self.camera, self.depth
-        sub.rows, sub.cols, sub.z, sub.room, sub.weight, sub.xy = (
-            a[keep] for a in (self.rows, self.cols, self.z, self.room, self.weight, self.xy))
+        sub.rows, sub.cols, sub.z, sub.room, sub.weight, sub.xy, sub.ground_z = (
+            a[keep] for a in (self.rows, self.cols, self.z, self.room, self.weight, self.xy, self.ground_z))
         sub.cdf = np.cumsum(sub.weight)
         return sub
 
@@ -260,6 +275,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
         rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
         return PlacementResult(None, 0, dict(rejections))
     pool = pool.fitting(min(extents[0], extents[1]) / 2)
+    if not rules.allow_truncation:  # a tall sign near the camera leaves the image at the top
+        pool = pool.subset(pool.top_in_image(frame, extents[2]))
     tests = PoseTests.of(frame, extents, rules, allowed, class_name)
     jitter = math.radians(rules.yaw_jitter_deg)
     other_prints = [footprint_corners(o.matrix, o.extents, rules.object_gap / 2) for o in others]

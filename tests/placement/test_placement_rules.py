@@ -181,3 +181,30 @@ def test_the_checkers_ground_gap_takes_a_plumb_person_at_its_foot_and_a_car_at_i
     lifted = person.copy()
     lifted[2, 3] += 0.08
     assert ground_gap(fit, lifted, footprint_grid(0.6, 0.6), "person") > LIMITS["ground_gap_m"]
+
+
+def test_candidates_whose_top_leaves_the_image_are_only_spots_every_pose_rejects():
+    """A tall sign near the camera leaves the image at the top (a 3 m sign needs about 10 m on
+    Cityscapes' camera): placement draws no candidate whose top is out of the image even a metre
+    further away. The filter only spares attempts: every candidate it leaves out, posed level
+    where it was drawn at any heading, is "not fully inside the image"; and it leaves in the spots
+    further away."""
+    from synthcompose.placement.boxes import pose_matrix
+    from synthcompose.placement.poses import PoseTests
+    from synthcompose.placement.search import candidates
+
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512)  # a footway from 7 m
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera)
+    extents = (0.13, 0.6, 3.2)
+    pool = candidates(frame, np.array([label_id("sidewalk")]), (3.0, 40.0))
+    top = pool.top_in_image(frame, extents[2])
+    assert 0 < top.sum() < len(top)
+    out = np.flatnonzero(~top)
+    tests = PoseTests.of(frame, extents, PlacementRules(), ("sidewalk",), "traffic sign")
+    rng = np.random.default_rng(0)
+    for idx in rng.choice(out, size=min(40, len(out)), replace=False):
+        m = pose_matrix(pool.point(int(idx)).astype(float), np.array([0.0, 0.0, 1.0]), float(rng.uniform(-np.pi, np.pi)))
+        rejection = tests.image(m, heights=False)
+        assert rejection is not None and rejection.reason == "not fully inside the image"
+    assert pool.z[top].min() > pool.z[~top].max() - 1.0  # the nearer spots are left out
