@@ -58,6 +58,7 @@ ENTRY_SCHEMA: dict[str, Any] = {
                 "height_mm": {"type": "number", "minimum": 100, "maximum": 5000},
                 "lower_edge_m": {"type": "array", "minItems": 1, "items": {"type": "number", "minimum": 0.5,
                                                                            "maximum": 6}},
+                "faces": {"enum": ["traffic", "away"]},
                 "below": {"type": "array", "items": {
                     "type": "object", "additionalProperties": False, "required": ["id", "p"],
                     "properties": {"id": _ID, "p": {"type": "number", "minimum": 0, "maximum": 1}}}},
@@ -85,6 +86,9 @@ class SignSpec:
     lower_edge_m: tuple[float, ...] = LOWER_EDGE_M
     #: (entry id, its kind, probability, its plate) of each supplementary sign that may hang under it
     below: tuple[tuple[str, str, float, "SignSpec"], ...] = ()
+    #: ``traffic``: its face towards the traffic of the lane beside it; ``away``: its back (a sign
+    #: that bars that traffic - no entry, no vehicles - would tell the cars there to stop being there)
+    faces: str = "traffic"
 
 
 @dataclass(frozen=True)
@@ -139,7 +143,8 @@ def _entry(path: Path, group: str) -> CastEntry:
             raise ModelError(path, f"field 'sign/face': {face} is missing")
         sign = SignSpec(str(face.resolve()), s["width_mm"] / 1000.0, s["height_mm"] / 1000.0,
                         tuple(float(v) for v in s.get("lower_edge_m", LOWER_EDGE_M)),
-                        tuple((b["id"], "", float(b["p"]), None) for b in s.get("below", [])))  # resolved by load_catalogue
+                        tuple((b["id"], "", float(b["p"]), None) for b in s.get("below", [])),  # resolved by load_catalogue
+                        s.get("faces", "traffic"))
     return CastEntry(
         id=data["id"], class_name=data["class"], kind=data["kind"], group=group, model=model,
         up=data.get("up", "+y"), forward=data.get("forward", "+x"),

@@ -70,6 +70,8 @@ def _sign(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
         u -= p
     lower = float(spec.lower_edge_m[int(rng.integers(len(spec.lower_edge_m)))])
     described = {"code": entry.kind, "below": [p.code for p in plates[1:]], "lower_edge_m": lower}
+    if spec.faces != "traffic":
+        described["faces"] = spec.faces
     return sign_model(tuple(plates), lower, size), described
 
 

@@ -206,7 +206,7 @@ def _turned(frame: Frame, street, point: np.ndarray, orientation: str, extents, 
     if orientation == "pedestrian":
         spot = person_spot(frame, street, point, rng, hand, pose_hint)
     elif orientation == "facing-traffic":
-        spot = sign_spot(frame, street, point, extents, rng, jitter, hand)
+        spot = sign_spot(frame, street, point, extents, rng, jitter, hand, pose_hint)
     else:
         spot = vehicle_spot(frame, street, point, extents, orientation, rng, jitter, hand)
     if isinstance(spot, Rejection):
@@ -258,7 +258,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
                  pose_hint: str | None = None) -> PlacementResult:
     """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not.
     ``pose_hint``: a person's pose, decided (and its model posed) before the placement
-    (``walking`` / ``standing``): the person is placed as that pose stands in traffic.
+    (``walking`` / ``standing``): the person is placed as that pose stands in traffic; ``away``:
+    a sign that turns its back to the traffic beside it (the cast's ``faces``).
 
     ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
     candidate (the preview shows them); the result does not depend on it."""

@@ -67,7 +67,8 @@ class Traffic:
                  street's own direction)
     centre_m   : the centre line's offset (None: one-way)
     lane_m     : the lane's (right, left) offsets (vehicles)
-    pose_hint  : ``walking`` or ``standing`` (people; the cast poses the model so)
+    pose_hint  : ``walking`` or ``standing`` (people; the cast poses the model so); ``away`` (a
+                 sign that turns its back to the traffic beside it: no entry)
     layout     : ``parallel`` / ``angled`` / ``perpendicular`` (parked vehicles)
     """
 
@@ -323,9 +324,10 @@ def person_spot(frame: Frame, street: Street, point: np.ndarray, rng: np.random.
 
 
 def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.random.Generator, jitter: float,
-              hand: int) -> tuple[np.ndarray, float, Traffic] | Rejection:
+              hand: int, hint: str | None = None) -> tuple[np.ndarray, float, Traffic] | Rejection:
     """A sign at the kerb's edge (its plate's edge ``SIGN_KERB`` from it), its face towards the
-    traffic of the lane beside that kerb."""
+    traffic of the lane beside that kerb; with ``hint`` ``away``, its back (the sign bars
+    that traffic: it faces the other way)."""
     kerb = footway_kerb(frame, street, point, hand)
     if kerb is None:
         return Rejection("no kerb for the sign", "no kerb near")
@@ -337,9 +339,11 @@ def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.
     target = min(max(dist, near), near + SIGN_EDGE) if dist <= near + SIGN_EDGE else near + SIGN_EDGE / 2
     xy = point[:2] + towards * (dist - target)
     # the face (the model's +x) looks against the traffic that reads it
-    yaw = heading + (math.pi if direction > 0 else 0.0) + float(rng.uniform(-jitter, jitter))
+    faces = direction if hint != "away" else -direction  # the traffic its face is towards
+    yaw = heading + (math.pi if faces > 0 else 0.0) + float(rng.uniform(-jitter, jitter))
     a, s = (float(v[0]) for v in street.to_road(xy[None]))
-    traffic = Traffic("sign", where, side, "with" if direction > 0 else "against", a, s, math.degrees(heading))
+    traffic = Traffic("sign", where, side, "with" if faces > 0 else "against", a, s, math.degrees(heading),
+                      pose_hint=hint if hint == "away" else None)
     return np.array([xy[0], xy[1], point[2]]), yaw, traffic
 
 
