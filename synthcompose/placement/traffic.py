@@ -68,7 +68,7 @@ class Traffic:
     centre_m   : the centre line's offset (None: one-way)
     lane_m     : the lane's (right, left) offsets (vehicles)
     pose_hint  : ``walking`` or ``standing`` (people; the cast poses the model so); ``away`` (a
-                 sign that turns its back to the traffic beside it: no entry)
+                 sign that bars the traffic it faces, no entry: its back to the ego vehicle's way)
     layout     : ``parallel`` / ``angled`` / ``perpendicular`` (parked vehicles)
     """
 
@@ -326,8 +326,9 @@ def person_spot(frame: Frame, street: Street, point: np.ndarray, rng: np.random.
 def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.random.Generator, jitter: float,
               hand: int, hint: str | None = None) -> tuple[np.ndarray, float, Traffic] | Rejection:
     """A sign at the kerb's edge (its plate's edge ``SIGN_KERB`` from it), its face towards the
-    traffic of the lane beside that kerb; with ``hint`` ``away``, its back (the sign bars
-    that traffic: it faces the other way)."""
+    traffic of the lane beside that kerb; with ``hint`` ``away`` (a sign that bars the traffic
+    it faces: no entry), its back to the ego vehicle's direction, on either kerb: no driver
+    going our way reads it, whose being there it would forbid."""
     kerb = footway_kerb(frame, street, point, hand)
     if kerb is None:
         return Rejection("no kerb for the sign", "no kerb near")
@@ -339,7 +340,7 @@ def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.
     target = min(max(dist, near), near + SIGN_EDGE) if dist <= near + SIGN_EDGE else near + SIGN_EDGE / 2
     xy = point[:2] + towards * (dist - target)
     # the face (the model's +x) looks against the traffic that reads it
-    faces = direction if hint != "away" else -direction  # the traffic its face is towards
+    faces = direction if hint != "away" else -1  # the traffic its face is towards
     yaw = heading + (math.pi if faces > 0 else 0.0) + float(rng.uniform(-jitter, jitter))
     a, s = (float(v[0]) for v in street.to_road(xy[None]))
     traffic = Traffic("sign", where, side, "with" if faces > 0 else "against", a, s, math.degrees(heading),
