@@ -17,7 +17,7 @@ camera match, appearance and camera-look entries are the documents their own mod
 the same way: the layout did not change, the key was added). Version 2 added, per object,
 ``traffic`` (where it stands in traffic: role moving / parked / walking / standing / sign, lane
 side, direction with or against the ego vehicle, its road-frame position, the pose hint of a
-person: ``placement.traffic.Traffic``), and per image set ``street`` (the street found: axis,
+person: ``placement.claim.Traffic``), and per image set ``street`` (the street found: axis,
 carriageways, centre lines, markings, crossings; ``placement.street``) and ``placement_rules``
 (the rules the objects were placed by, which check-placement checks them by); version 1
 records read without them.
@@ -124,7 +124,7 @@ class ObjectRecord:
     placement_check: Mapping[str, Any] | None  # saved poses: whether the rules accept them
     bbox_2d_amodal: Box | None = None  # the whole rendered silhouette
     mask_rle: Mapping[str, Any] | None = None  # the visible mask, COCO RLE
-    traffic: Mapping[str, Any] | None = None  # placement.traffic.Traffic.to_dict(); None: no traffic sense
+    traffic: Mapping[str, Any] | None = None  # placement.claim.Traffic.to_dict(); None: no traffic sense
 
     def to_json(self) -> dict[str, Any]:
         d = {"index": self.index, "name": self.name, "model": self.model, "class": self.class_name,

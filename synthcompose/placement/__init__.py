@@ -8,7 +8,8 @@ planes over a metric neighbourhood), ``road`` (kerb lines and the road's directi
 :func:`place_object`). Traffic sense (docs/placement.md): ``markings`` (lane lines and zebra
 stripes in the photo), ``street_lines`` and ``street`` (the street's axis, lines, carriageways,
 centre line, crossings), ``parked`` (the frame's own parked rows), ``lanes`` (lanes and their
-directions), ``traffic`` (a candidate's place in traffic: :class:`Traffic`) and ``verdict``
+directions), ``traffic`` (a candidate's place in traffic), ``claim`` (what placement says of it:
+:class:`Traffic`) and ``verdict``
 (the traffic rules of a finished pose, part of :func:`check_pose`).
 """
 from .boxes import (
@@ -23,6 +24,7 @@ from .boxes import (
     strict_inside,
     visibility_of,
 )
+from .claim import Traffic
 from .ground import GroundFit, fit_ground, ground_points, local_ground
 from .noise import StereoNoise, stereo_noise
 from .poses import PoseTests, check_pose, footprint_support, frame_noise, scene_clearance
@@ -46,7 +48,6 @@ from .rules import (
 )
 from .search import place_object
 from .street import Street, find_street
-from .traffic import Traffic
 
 __all__ = [
     "ALLOWED_SURFACES", "FOOTPRINT_SAMPLES", "GROUND_LEVEL", "INLIER_BAND", "KERB_CLEARANCE", "MAX_PENETRATION",

@@ -33,7 +33,7 @@ from .noise import StereoNoise, stereo_noise
 from .road import surface_edges
 
 if TYPE_CHECKING:
-    from .traffic import Traffic
+    from .claim import Traffic
 from .rules import (
     GROUND_LEVEL,
     KERB_CLEARANCE,

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .traffic import Traffic
+    from .claim import Traffic
 
 #: default allowed surfaces per Cityscapes class
 ALLOWED_SURFACES: dict[str, tuple[str, ...]] = {

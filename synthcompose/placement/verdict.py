@@ -1,7 +1,7 @@
 """The traffic rules of a finished pose: what :func:`check_pose` adds to the geometric rules
 for an object placed with traffic sense (``traffic.py``), and what check-placement measures.
 
-Given the pose and what the placement said of it (its :class:`~.traffic.Traffic`), measured
+Given the pose and what the placement said of it (its :class:`~.claim.Traffic`), measured
 again on the frame's street (``street.py``, ``lanes.py``):
 
 * a vehicle in a lane: the lane's role is the one claimed (moving / parked) and the one its
@@ -27,11 +27,11 @@ import numpy as np
 from synthcompose.geometry.depth import Frame, back_project
 from synthcompose.labels import label_id
 
+from .claim import Traffic
 from .rules import GROUND_LEVEL, Rejection, label_mask
 from .street import EGO_HALF_LANE
 from .traffic import (
     SIGN_EDGE,
-    Traffic,
     footway_kerb,
     hand_of,
     lane_room,

@@ -45,10 +45,10 @@ from synthcompose.placement import (
     road_line,
     scene_clearance,
 )
+from synthcompose.placement.claim import Traffic
 from synthcompose.placement.rules import UPRIGHT, rules_from, standing_footprint
 from synthcompose.placement.saved_poses import placement_from_pose
 from synthcompose.placement.surfaces import frame_for
-from synthcompose.placement.traffic import Traffic
 from synthcompose.placement.verdict import lane_yaw_error
 from synthcompose.record import ImageSetRecord, read_record
 
