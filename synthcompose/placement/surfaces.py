@@ -173,14 +173,15 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
     # sides along the row (a traffic island's noise, a manhole) are left out
-    side &= ~_between(road, ENCLOSED_PX)
+    enclosed = _between(road, ENCLOSED_PX)  # the road is final from here
+    side &= ~enclosed
     # beside the road: touching it (a kerb between them), not across grass or a wall
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
     side = _beside(side, near_road)
     # a sunlit stretch of a footway found in shade: raised and flat like it, a few b* units
     # yellower than the (shaded) road but no more saturated (sunlight, not grass), and joined to
     # it; alone, such ground may be sunlit asphalt that the profile reads raised far off
-    sunlit = raised & green & ~grass & ~road & ~foot & ~_between(road, ENCLOSED_PX)
+    sunlit = raised & green & ~grass & ~road & ~foot & ~enclosed
     side = _joined(side, sunlit)
     ahead = cv2.morphologyEx(ahead.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     side |= ahead & ~road
@@ -191,7 +192,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
         & (hsv[..., 1] >= s_road + VERGE_SATURATION)
     # or as saturated as grass, if not yellower (dull grass, a strip under fallen leaves)
     verdant |= grass & (hsv[..., 0] <= VERGE_HUE_MAX)
-    verge = raised & verdant & ~road & ~side & ~foot & ~_between(road, ENCLOSED_PX)
+    verge = raised & verdant & ~road & ~side & ~foot & ~enclosed
     verge = cv2.morphologyEx(verge.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     verge = _beside(verge, near_road)
     small_labels = np.zeros((h, w), np.uint8)
