@@ -86,8 +86,9 @@ class SignSpec:
     lower_edge_m: tuple[float, ...] = LOWER_EDGE_M
     #: (entry id, its kind, probability, its plate) of each supplementary sign that may hang under it
     below: tuple[tuple[str, str, float, "SignSpec"], ...] = ()
-    #: ``traffic``: its face towards the traffic of the lane beside it; ``away``: its back (a sign
-    #: that bars that traffic - no entry, no vehicles - would tell the cars there to stop being there)
+    #: ``traffic``: its face towards the traffic of the lane beside it; ``away``: its back to the
+    #: ego vehicle's way on either kerb (no entry, no vehicles: facing the cars going our way it
+    #: would tell them they should not be there)
     faces: str = "traffic"
 
 

@@ -259,7 +259,7 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     """Find a pose for one object of ``extents`` (l, w, h metres) in the frame, or say why not.
     ``pose_hint``: a person's pose, decided (and its model posed) before the placement
     (``walking`` / ``standing``): the person is placed as that pose stands in traffic; ``away``:
-    a sign that turns its back to the traffic beside it (the cast's ``faces``).
+    a sign that shows its back to the ego vehicle's way (the cast's ``faces``: no entry).
 
     ``trace``: when a list, gets (candidate point (3,) in V, rejection reason) per rejected
     candidate (the preview shows them); the result does not depend on it."""

@@ -55,6 +55,13 @@ def sign_distance(extents) -> float:
     return float(extents[1]) / 2 + SIGN_KERB
 
 
+def sign_faces(direction: int, hint: str | None) -> int:
+    """Whose traffic a sign's face is towards: +1 ours, -1 the other way. The traffic of the
+    lane beside its kerb (``direction``), or, for a sign that bars the traffic it faces (``hint``
+    ``away``: no entry), always the other way: no driver going our way reads it."""
+    return -1 if hint == "away" else direction
+
+
 def lane_room(width: float) -> float:
     """The lane width a moving vehicle ``width`` metres wide needs (metres)."""
     return width + 2 * (LANE_MARGIN if width <= WIDE_BODY else WIDE_MARGIN)
@@ -286,7 +293,7 @@ def sign_spot(frame: Frame, street: Street, point: np.ndarray, extents, rng: np.
     target = min(max(dist, near), near + SIGN_EDGE) if dist <= near + SIGN_EDGE else near + SIGN_EDGE / 2
     xy = point[:2] + towards * (dist - target)
     # the face (the model's +x) looks against the traffic that reads it
-    faces = direction if hint != "away" else -1  # the traffic its face is towards
+    faces = sign_faces(direction, hint)
     yaw = heading + (math.pi if faces > 0 else 0.0) + float(rng.uniform(-jitter, jitter))
     a, s = (float(v[0]) for v in street.to_road(xy[None]))
     traffic = Traffic("sign", where, side, "with" if faces > 0 else "against", a, s, math.degrees(heading),

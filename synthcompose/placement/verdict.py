@@ -38,6 +38,7 @@ from .traffic import (
     parking_fit,
     side_street_spot,
     sign_distance,
+    sign_faces,
     street_lane,
     street_of,
 )
@@ -87,8 +88,7 @@ def check_traffic(frame: Frame, extents, m: np.ndarray, orientation: str, claim:
         near = sign_distance(extents)
         if not near - SIGN_BAND <= dist <= near + SIGN_EDGE + SIGN_BAND:
             return Rejection("sign not at the kerb's edge", f"{dist:.2f} m from the kerb")
-        faces = -1 if claim.pose_hint == "away" else direction
-        want = heading + (math.pi if faces > 0 else 0.0)
+        want = heading + (math.pi if sign_faces(direction, claim.pose_hint) > 0 else 0.0)
         if _angle(yaw, want) > YAW_LIMIT:
             return Rejection("sign not facing its traffic", f"{_angle(yaw, want):.0f} deg off")
         return None
