@@ -151,7 +151,7 @@ def pose_kind(seed: int, spec: ObjectSpec, key: str, index: int) -> str | None:
 
 def _posed_as(drawn: CastDraw | None, pose: dict | None) -> str | None:
     """The pose kind a model was given (``walking`` / ``standing``), or ``away`` for a sign
-    that turns its back to the traffic beside it; None otherwise."""
+    that shows its back to the ego vehicle's way (the cast's ``faces``); None otherwise."""
     if drawn is not None and (drawn.appearance.get("sign") or {}).get("faces") == "away":
         return "away"
     kind = (pose or (drawn.appearance.get("pose") if drawn is not None else None) or {}).get("pose")
