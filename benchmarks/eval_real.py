@@ -98,13 +98,15 @@ def labels_changed_outside(root: Path, out: Path, keys: list[str]) -> int | None
 
 def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str, float]]]:
     """Per image set of an unlabelled ``root`` whose labelled twin is under ``truth``: precision
-    and recall of the found road and sidewalk against gtFine, and the share of the found
-    sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain)."""
+    and recall of the found road and sidewalk against gtFine, the footway precision (the found
+    sidewalk's share on paved ground a person walks on: sidewalk, parking, ground) and its share
+    on ground a person can stand on (those and terrain)."""
     from synthcompose.io.dataset import labelled_twin
     from synthcompose.labels import label_id
     from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
 
-    walkable = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
+    footway = [label_id(n) for n in ("sidewalk", "parking", "ground")]
+    walkable = footway + [label_id("terrain")]
     out = []
     for ident in find_image_sets(root):
         twin = labelled_twin(truth, ident)
@@ -118,6 +120,7 @@ def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str,
             fig[f"{name}_precision"] = float((f & g).sum() / max(f.sum(), 1))
             fig[f"{name}_recall"] = float((f & g).sum() / max(g.sum(), 1))
         side = found == SIDEWALK
+        fig["footway_precision"] = float(np.isin(t.label_ids[side], footway).mean()) if side.any() else 0.0
         fig["sidewalk_on_walkable"] = float(np.isin(t.label_ids[side], walkable).mean()) if side.any() else 0.0
         out.append((ident.key, fig))
     return out
@@ -184,7 +187,8 @@ def evaluate(root: Path, out: Path, objects: int, seed: int, truth: Path | None,
         for key, f in surfaces_against_truth(root, truth):
             print(f"  {key:<44} road {f['road_precision']:.2f} / {f['road_recall']:.2f}, sidewalk "
                   f"{f['sidewalk_precision']:.2f} / {f['sidewalk_recall']:.2f} "
-                  f"({f['sidewalk_on_walkable']:.0%} of it on walkable ground)")
+                  f"(footway precision {f['footway_precision']:.2f}; {f['sidewalk_on_walkable']:.0%} of it on "
+                  "walkable ground)")
     print("rejections (all attempts):", ", ".join(f"{k} x{v}" for k, v in reasons.most_common(6)))
     return result
 

@@ -3,11 +3,13 @@
     python benchmarks/eval_surfaces.py <labelled root> [--generated 4 --streets traffic] [--seed 7]
 
 Each labelled image set is read as a frame without labels would be (its disparity and photo
-only; gtFine is the truth): road and sidewalk precision and recall per frame, the share of the
-found sidewalk on ground a person can stand on (sidewalk, parking, ground, terrain), the found
-sidewalk's share of the frame, the true sidewalk's recall per distance band (where the finder
-loses it), the found grass verges (terrain: where a sign may stand) and the share of them on
-ground beside the carriageway (sidewalk, parking, ground, terrain, vegetation), and the
+only; gtFine is the truth): road and sidewalk precision and recall per frame; the footway
+precision, the found sidewalk's share on paved ground a person walks on (sidewalk, parking,
+ground: Cityscapes labels a paved strip or square beyond a kerb "ground" where it is no
+sidewalk along the road); its share on ground a person can stand on (those and terrain); the
+found sidewalk's share of the frame, the true sidewalk's recall per distance band (where the
+finder loses it), the found grass verges (terrain: where a sign may stand) and the share of
+them on ground beside the carriageway (sidewalk, parking, ground, terrain, vegetation), and the
 finder's CPU seconds. ``--generated N``: the same on N generated scenes
 (2048x1024, ``make-sample``), in the same run. Nothing is written; never commit real pixels.
 """
@@ -30,6 +32,9 @@ from synthcompose.labels import label_id  # noqa: E402
 from synthcompose.placement.surfaces import ROAD, SIDEWALK, TERRAIN, find_surfaces  # noqa: E402
 
 WALKABLE = [label_id(n) for n in ("sidewalk", "parking", "ground", "terrain")]
+#: a footway: paved ground a person walks on (Cityscapes' "ground" holds the paved squares and
+#: strips beyond a kerb that are not labelled sidewalk); grass verges (terrain) are left out
+FOOTWAY = [label_id(n) for n in ("sidewalk", "parking", "ground")]
 #: where a sign may stand: off the carriageway, on ground beside it (a verge holds vegetation too)
 SIGN_GROUND = WALKABLE + [label_id("vegetation")]
 #: distance bands of the sidewalk's recall, metres
@@ -53,6 +58,7 @@ def measure(ident, root: Path) -> dict:
         fig[f"{name}_P"] = _ratio(int((f & g).sum()), int(f.sum()))
         fig[f"{name}_R"] = _ratio(int((f & g).sum()), int(g.sum()))
     side = found == SIDEWALK
+    fig["footway_P"] = float(np.isin(truth[side], FOOTWAY).mean()) if side.any() else None
     fig["walkable"] = float(np.isin(truth[side], WALKABLE).mean()) if side.any() else None
     fig["share"] = float(side.mean())
     verge = found == TERRAIN  # a sign's place: off the carriageway, on ground beside it
@@ -70,8 +76,8 @@ def report(root: Path, label: str) -> list[dict]:
     idents = [i for i in find_image_sets(root) if i.path(root, "labelIds").exists()]
     if not idents:
         raise SystemExit(f"{root}: no labelled image set (gtFine) to measure against")
-    cols = ["road_P", "road_R", "sidewalk_P", "sidewalk_R", "walkable", "share"] + [f"R{lo}-{hi}" for lo, hi in BANDS] \
-        + ["verge_n", "verge_ok"]
+    cols = ["road_P", "road_R", "sidewalk_P", "sidewalk_R", "footway_P", "walkable", "share"] \
+        + [f"R{lo}-{hi}" for lo, hi in BANDS] + ["verge_n", "verge_ok"]
     print(f"\n== {label}: {root}")
     print(f"{'image set':<34}" + "".join(f"{c:>11}" for c in cols) + f"{'cpu s':>7}")
     rows = []
