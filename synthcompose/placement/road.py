@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from synthcompose.geometry.depth import Frame
+from synthcompose.geometry.depth import Frame, nearest_in_row
 from synthcompose.labels import label_id
 
 from .rules import GROUND_LEVEL, label_mask
@@ -39,6 +39,9 @@ LINE_CELL = 2.5
 LINE_RADIUS = 15.0
 #: at most this many kerb points go into one RANSAC (an even subsample)
 LINE_POINTS = 800
+#: a kerb seen across a strip of no found ground at most this wide (metres): its stones and a
+#: gutter, neither road nor footway on a frame without labels
+GUTTER = 0.8
 
 
 def road_line(frame: Frame, surface_ids: np.ndarray, point: np.ndarray) -> RoadLine | None:
@@ -75,7 +78,8 @@ def _surface_edges(frame: Frame, road_ids: np.ndarray, stride: int = 2) -> np.nd
     road = label_mask(road_ids)[lab]
     side = label_mask([label_id(n) for n in GROUND_LEVEL])[lab] & ~road
     near_side = cv2.dilate(side.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    edge = road & near_side & np.isfinite(frame.depth[::stride, ::stride])
+    edge = (road & near_side | _across_gutter(lab, road, side, frame.depth[::stride, ::stride],
+                                             frame.camera.fx / stride)) & np.isfinite(frame.depth[::stride, ::stride])
     v, u = np.nonzero(edge)
     v, u = v * stride, u * stride
     z = frame.depth[v, u].astype(np.float64)
@@ -83,6 +87,25 @@ def _surface_edges(frame: Frame, road_ids: np.ndarray, stride: int = 2) -> np.nd
     optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
     m = cam.vehicle_from_optical
     return (optical @ m[:3, :3].T + m[:3, 3])[:, :2]
+
+
+def _across_gutter(lab: np.ndarray, road: np.ndarray, side: np.ndarray, depth: np.ndarray, fx: float) -> np.ndarray:
+    """Road pixels at the road's edge along their row where the ground beyond is found only past
+    a strip of nothing (label 0) at most :data:`GUTTER` metres wide (``fx``: the focal length in
+    these pixels): on frames without labels a kerb's stones, and a gutter under leaves, are often
+    found as neither road nor footway."""
+    def rightwards(lab, road, side, depth):
+        H, W = lab.shape
+        void = lab == 0
+        _, first = nearest_in_row(~void)  # the first found pixel at or right of each pixel
+        cols = np.minimum(np.arange(W) + 1, W - 1)
+        beyond = np.minimum(first[:, cols], W - 1)  # past the void that starts next to it
+        with np.errstate(invalid="ignore"):
+            narrow = (beyond - np.arange(W)) * depth / fx <= GUTTER
+        return road & void[:, cols] & side[np.arange(H)[:, None], beyond] & narrow
+
+    flip = [a[:, ::-1] for a in (lab, road, side, depth)]
+    return rightwards(lab, road, side, depth) | rightwards(*flip)[:, ::-1]
 
 
 def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, band: float,
