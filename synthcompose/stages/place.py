@@ -208,6 +208,10 @@ def where_it_stands(class_name: str) -> str:
     return orientation_for(class_name)
 
 
+#: the places in traffic (:func:`where_it_stands`) taken first in a frame: the footway's edge
+#: and the footway are narrow and a vehicle in the lane beside them hides them (it may stand a
+#: little further on), while a person or a sign placed first rarely leaves a car no lane
+FOOTWAY_FIRST = ("pedestrian", "facing-traffic")
 #: a slot whose object found no place gets up to this many substitutes, each its own draw
 REDRAWS = 2
 #: vehicles that need more free road than a car: one of them finding no place does not mean
@@ -257,17 +261,21 @@ def _redraw(o: PlaceOptions, weights: np.ndarray, prep: Prepared, objects: list,
 def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``o.objects_per_image`` objects (by ``weights``) and place each in the frame, the
-    ones placed before it standing; or, with ``saved``, use its objects and poses as they are
-    (the record says whether the rules accept them). ``trace``: a list that gets (candidate
-    point, rejection reason) of every rejected candidate (the preview shows them)."""
+    ones placed before it standing, people and signs first (:data:`FOOTWAY_FIRST`); or, with
+    ``saved``, use its objects and poses as they are (the record says whether the rules accept
+    them). ``trace``: a list that gets (candidate point, rejection reason) of every rejected
+    candidate (the preview shows them)."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
     objects: list[PlacedObject] = []
     failures: list[NotPlaced] = []
     taken = _taken_by_polygons(o.dataset, ident)  # instance ids given
     with timed(timings, "placement"):
-        for k in range(o.objects_per_image if saved is None else len(saved.objects)):
-            spec = o.objects[int(rng.choice(len(o.objects), p=weights))] if saved is None else \
-                saved_spec(o.objects, saved, k)
+        if saved is None:  # drawn first, then placed: those that stand on a footway before vehicles
+            specs = [o.objects[int(rng.choice(len(o.objects), p=weights))] for _ in range(o.objects_per_image)]
+            specs.sort(key=lambda spec: where_it_stands(spec.class_name) not in FOOTWAY_FIRST)
+        else:
+            specs = [saved_spec(o.objects, saved, k) for k in range(len(saved.objects))]
+        for k, spec in enumerate(specs):
             done = _place_one(o, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
             (objects if isinstance(done, PlacedObject) else failures).append(done)
         if saved is None and not objects and failures:
