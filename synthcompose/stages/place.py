@@ -261,10 +261,10 @@ def _redraw(o: PlaceOptions, weights: np.ndarray, prep: Prepared, objects: list,
 def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``o.objects_per_image`` objects (by ``weights``) and place each in the frame, the
-    ones placed before it standing, people and signs first (:data:`FOOTWAY_FIRST`); or, with
-    ``saved``, use its objects and poses as they are (the record says whether the rules accept
-    them). ``trace``: a list that gets (candidate point, rejection reason) of every rejected
-    candidate (the preview shows them)."""
+    ones placed before it standing, people and signs first (:data:`FOOTWAY_FIRST`; the record
+    lists them as drawn); or, with ``saved``, use its objects and poses as they are (the record
+    says whether the rules accept them). ``trace``: a list that gets (candidate point, rejection
+    reason) of every rejected candidate (the preview shows them)."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
     objects: list[PlacedObject] = []
     failures: list[NotPlaced] = []
@@ -272,12 +272,18 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
     with timed(timings, "placement"):
         if saved is None:  # drawn first, then placed: those that stand on a footway before vehicles
             specs = [o.objects[int(rng.choice(len(o.objects), p=weights))] for _ in range(o.objects_per_image)]
-            specs.sort(key=lambda spec: where_it_stands(spec.class_name) not in FOOTWAY_FIRST)
+            order = sorted(range(len(specs)), key=lambda k: where_it_stands(specs[k].class_name) not in FOOTWAY_FIRST)
         else:
             specs = [saved_spec(o.objects, saved, k) for k in range(len(saved.objects))]
-        for k, spec in enumerate(specs):
-            done = _place_one(o, prep, spec, objects, taken, saved.objects[k] if saved is not None else None, trace, saved)
+            order = list(range(len(specs)))
+        drawn_as: dict[int, int] = {}
+        for k in order:
+            done = _place_one(o, prep, specs[k], objects, taken, saved.objects[k] if saved is not None else None,
+                              trace, saved)
             (objects if isinstance(done, PlacedObject) else failures).append(done)
+            drawn_as[id(done)] = k
+        objects.sort(key=lambda p: drawn_as[id(p)])  # the record lists them as they were drawn
+        failures.sort(key=lambda f: drawn_as[id(f)])
         if saved is None and not objects and failures:
             # a frame that got none of its objects tries each of them once more (twice the
             # attempts): a frame with free road or footway gets an object where one fits
