@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
 
+import cv2
 import numpy as np
 
 from synthcompose.camera import Camera
@@ -52,18 +53,34 @@ def ground_albedo(rgb: np.ndarray, frame: Frame, placement: Placement, allowed: 
     return tuple(float(c) for c in np.median(lin, axis=0))
 
 
+#: the matcher's specks on the ground the compose leaves out: at most this many pixels across
+GROUND_SPECK = 11
+
+
 def occluders_in_rows(depth: np.ndarray, bands: list[slice], ground: np.ndarray,
                       unlabelled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`~synthcompose.geometry.depth.occluder_fill` of ``depth`` and ``ground`` in the rows
     from the first of ``bands`` to the last (holes are filled along rows: the same values there
     as over the whole frame), a hole counted as ground only where no label names it
-    (``unlabelled``: found surfaces leave the matcher's holes unnamed); elsewhere depth inf and
-    ``ground`` as given (the compose does not read them)."""
+    (``unlabelled``: found surfaces leave the matcher's holes unnamed), the ground's specks
+    closed (:data:`GROUND_SPECK`); elsewhere depth inf and ``ground`` as given (the compose does
+    not read them)."""
     out, ground = np.full(depth.shape, np.inf, np.float32), ground.copy()
     if bands:
         r0, r1 = min(b.start for b in bands), max(b.stop for b in bands)
-        out[r0:r1], filled = occluder_fill(depth[r0:r1], ground[r0:r1])
-        ground[r0:r1] |= filled & unlabelled[r0:r1]
+        # the rows around them too, so that the closing below reads past the bands' edges
+        p0, p1 = max(r0 - GROUND_SPECK, 0), min(r1 + GROUND_SPECK, depth.shape[0])
+        rows, filled = occluder_fill(depth[p0:p1], ground[p0:p1])
+        near = ground[p0:p1] | (filled & unlabelled[p0:p1])
+        # the ground's depth without the matcher's specks: a few pixels half a pixel of
+        # disparity nearer than the road around them hid the inserted shadow there (bright dots
+        # in the shadow under a car); a closing (the farther of the nearest) over GROUND_SPECK
+        # pixels lifts such pits to the road's depth and keeps its slope; it never brings the
+        # ground nearer, so the real ground hides no more of an inserted object than before
+        kernel = np.ones((GROUND_SPECK, GROUND_SPECK), np.uint8)
+        closed = cv2.morphologyEx(np.minimum(rows, np.float32(1e4)), cv2.MORPH_CLOSE, kernel)
+        rows = np.where(near & np.isfinite(rows), closed, rows)
+        out[r0:r1], ground[r0:r1] = rows[r0 - p0:r1 - p0], near[r0 - p0:r1 - p0]
     return out, ground
 
 
