@@ -276,14 +276,14 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
         else:
             specs = [saved_spec(o.objects, saved, k) for k in range(len(saved.objects))]
             order = list(range(len(specs)))
-        drawn_as: dict[int, int] = {}
+        slots = {}
         for k in order:
-            done = _place_one(o, prep, specs[k], objects, taken, saved.objects[k] if saved is not None else None,
-                              trace, saved)
+            slots[k] = done = _place_one(o, prep, specs[k], objects, taken,
+                                         saved.objects[k] if saved is not None else None, trace, saved)
             (objects if isinstance(done, PlacedObject) else failures).append(done)
-            drawn_as[id(done)] = k
-        objects.sort(key=lambda p: drawn_as[id(p)])  # the record lists them as they were drawn
-        failures.sort(key=lambda f: drawn_as[id(f)])
+        drawn = [slots[k] for k in sorted(slots)]  # the record lists them as they were drawn
+        objects = [d for d in drawn if isinstance(d, PlacedObject)]
+        failures = [d for d in drawn if not isinstance(d, PlacedObject)]
         if saved is None and not objects and failures:
             # a frame that got none of its objects tries each of them once more (twice the
             # attempts): a frame with free road or footway gets an object where one fits
