@@ -124,3 +124,12 @@ def pose_behind_a_pole(scene) -> np.ndarray:
             return pose_matrix(np.array([behind[0], behind[1], z]), np.array([0.0, 0.0, 1.0]),
                                math.atan2(ray[1], ray[0]) + math.pi / 2)
     pytest.skip("no pole in front of the road in this scene")
+
+
+def street_offset(scene, frame, b: float, a: float = 15.0) -> float:
+    """The road-frame offset s (placement/street.py) of a generated scene's street line at b
+    (metres across its street), seen ``a`` metres along it."""
+    from synthcompose.placement.street import find_street
+
+    x, y = scene.to_vehicle(a, b)
+    return float(find_street(frame).to_road(np.array([[float(x), float(y)]]))[1][0])

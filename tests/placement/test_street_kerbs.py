@@ -12,14 +12,10 @@ from synthcompose.placement.road import GUTTER
 from synthcompose.placement.street import find_street
 from synthcompose.synthetic import random_scene, render_scene
 
+from ..helpers import street_offset
 from ..tolerances import STREET_KERB_M
 
 W, H = 1024, 512
-
-
-def _street_offset(scene, frame, b: float, a: float = 15.0) -> float:
-    x, y = scene.to_vehicle(a, b)
-    return float(find_street(frame).to_road(np.array([[float(x), float(y)]]))[1][0])
 
 
 def _with_gutters(scene, arrays, width: float):
@@ -38,7 +34,7 @@ def _with_gutters(scene, arrays, width: float):
     assert strip.sum() > 2000  # the strip is there to be bridged
     gutters = np.where(strip, 0, labels).astype(labels.dtype)
     w = scene.road_half_width
-    kerbs = _street_offset(scene, frame, -w), _street_offset(scene, frame, w)
+    kerbs = street_offset(scene, frame, -w), street_offset(scene, frame, w)
     return frame, make_frame(depth, gutters, scene.camera, photo=arrays["rgb"]), kerbs
 
 

@@ -19,7 +19,7 @@ from synthcompose.placement.street import Carriageway, StreetLine, find_street
 from synthcompose.placement.traffic import SIGN_EDGE, sign_distance
 from synthcompose.synthetic import StreetKind, random_scene, render_scene
 
-from ..helpers import SIZES
+from ..helpers import SIZES, street_offset
 from ..tolerances import CAR_YAW_TO_ROAD_DEG, LANE_CENTRED_M, STREET_CENTRE_M, STREET_KERB_M, TRAFFIC_PLACED_MIN
 
 W, H = 1024, 512
@@ -40,12 +40,6 @@ def street(request):
     return _frame(*request.param)
 
 
-def _street_offset(scene, frame, b: float, a: float = 15.0) -> float:
-    """The road-frame offset s (street.py) of the scene's street line at b."""
-    x, y = scene.to_vehicle(a, b)
-    return float(find_street(frame).to_road(np.array([[float(x), float(y)]]))[1][0])
-
-
 def _facing_along(scene, yaw: float) -> int:
     """+1 when a heading points along the street (away from the camera), -1 against it."""
     return 1 if math.cos(yaw - scene.street_heading) > 0 else -1
@@ -56,12 +50,12 @@ def test_the_street_is_found_centre_line_and_kerbs(street):
     st = find_street(frame)
     ego = st.ego
     w = scene.road_half_width
-    assert abs(ego.right - _street_offset(scene, frame, -w)) <= STREET_KERB_M
-    assert abs(ego.left - _street_offset(scene, frame, w)) <= STREET_KERB_M
+    assert abs(ego.right - street_offset(scene, frame, -w)) <= STREET_KERB_M
+    assert abs(ego.left - street_offset(scene, frame, w)) <= STREET_KERB_M
     if StreetKind.of(scene.street_kind).one_way:
         assert ego.centre is None  # no centre line, the ego vehicle in the middle: one-way
     else:
-        assert ego.centre is not None and abs(ego.centre - _street_offset(scene, frame, 0.0)) <= STREET_CENTRE_M
+        assert ego.centre is not None and abs(ego.centre - street_offset(scene, frame, 0.0)) <= STREET_CENTRE_M
     if scene.zebra is not None:
         assert any(c.start <= scene.zebra[1] + 1.0 and c.end >= scene.zebra[0] - 1.0 for c in st.crossings)
 
