@@ -280,7 +280,8 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
         for k in order:
             slots[k] = done = _place_one(o, prep, specs[k], objects, taken,
                                          saved.objects[k] if saved is not None else None, trace, saved)
-            (objects if isinstance(done, PlacedObject) else failures).append(done)
+            if isinstance(done, PlacedObject):
+                objects.append(done)  # the next ones are placed among it
         drawn = [slots[k] for k in sorted(slots)]  # the record lists them as they were drawn
         objects = [d for d in drawn if isinstance(d, PlacedObject)]
         failures = [d for d in drawn if not isinstance(d, PlacedObject)]
