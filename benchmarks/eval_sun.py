@@ -58,7 +58,6 @@ from synthcompose.lighting.light import LightEstimate  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
 from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
-from synthcompose.placement.boxes import footprint_corners  # noqa: E402
 from synthcompose.placement.surfaces import frame_for  # noqa: E402
 from synthcompose.run.batch import run_batch  # noqa: E402
 
@@ -123,6 +122,12 @@ def open_sun_batch(manifest: Path, out: Path, frames: list[str]) -> None:
     twin_batch(manifest, out, frames, LightEstimate, "sun_mask", everywhere)
 
 
+def _footprint_3d(m: np.ndarray, extents) -> np.ndarray:
+    """(4, 3) vehicle-frame corners of an object's footprint (its box's base) from its pose."""
+    l, w = extents[0] / 2, extents[1] / 2
+    return np.array([[l, w, 0], [-l, w, 0], [-l, -w, 0], [l, -w, 0]]) @ m[:3, :3].T + m[:3, 3]
+
+
 def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
             sunless: Path | None = None, open_sun: Path | None = None) -> tuple[list, list, list]:
     """(frames, inserted cars, real cars) of one batch's outputs under ``out``; ``sunless``: the
@@ -156,7 +161,9 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         twin = None
         if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
             twin = read_image_set(sunless, ident)
-        feet = [footprint_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]) for o in rec["objects"]]
+        # each footprint where the plan sees it (a footway's objects stand over the road plane)
+        feet = [shadowlook.on_plan(_footprint_3d(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]),
+                                   plan, src.camera) for o in rec["objects"]]
         fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan) if twin is not None else None
         # the whole cast shadow: the sun over all the real ground, over the sunless twin
         whole = None
@@ -170,8 +177,8 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         for k, (obj, m, line, sky_line) in enumerate(zip(rec["objects"], masks, outlines, sky_outlines)):
             angle = None
             if sunny and real_dir is not None:
-                d = shadowlook.shadow_orientation(src.rgb, res.rgb, m, obj["pose"]["vehicle"]["position_m"],
-                                                  (plan.u, plan.v), plan.xy)
+                foot = shadowlook.on_plan(np.array([obj["pose"]["vehicle"]["position_m"]]), plan, src.camera)[0]
+                d = shadowlook.shadow_orientation(src.rgb, res.rgb, m, foot, (plan.u, plan.v), plan.xy)
                 if d is not None:
                     angles_all.append(shadowlook.axis_angle(d, real_dir))
             if fits is not None:

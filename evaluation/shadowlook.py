@@ -201,6 +201,20 @@ def shadow_orientation(src: np.ndarray, out: np.ndarray, mask: np.ndarray, footp
     return float(math.degrees(math.atan2(d[1], d[0])) % 360.0)
 
 
+def on_plan(corners: np.ndarray, plan, camera) -> np.ndarray:
+    """(N, 2) where ground points ``corners`` (N, 3, vehicle frame) lie on the ground plan: the
+    plan puts what a pixel sees at its ray's crossing with the road plane, so a footway's points
+    (raised over that plane) land farther out along their rays. Parallel planes map by a
+    homothety from the camera's foot: directions on the footway are kept, positions are not, so
+    a footprint on a footway must be moved the same way before its shadow is fitted on the plan."""
+    a, b, c = plan.plane
+    eye = np.array([camera.x, camera.y, camera.z], float)
+    p = np.asarray(corners, float)
+    d = p - eye
+    t = (a + b * (eye[0] - camera.x) + c * (eye[1] - camera.y) - eye[2]) / (d[:, 2] - b * d[:, 0] - c * d[:, 1])
+    return (eye + t[:, None] * d)[:, :2]
+
+
 def cast_shadow_fit(sunless: np.ndarray, out: np.ndarray, masks: list[np.ndarray], footprints: list[np.ndarray],
                     plan, darker: float = CAST_DARKER, reach: float = CAST_REACH) -> list[tuple[float, float, float] | None]:
     """Each object's cast shadow on the ground plan, fitted: (azimuth in degrees from x towards

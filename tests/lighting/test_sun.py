@@ -298,3 +298,26 @@ def test_the_cast_shadow_fit_finds_the_direction_a_box_throws_its_shadow():
         assert 1.0 <= fit[1] <= 3.0 and fit[2] > 0.8, fit
     # no cast shadow (the occlusion shadow alone, the same in both): nothing to fit
     assert shadowlook.cast_shadow_fit(sunless, sunless.copy(), [car], [feet], plan) == [None]
+
+
+def test_a_footway_object_is_fitted_where_the_plan_sees_its_footprint():
+    """The plan puts what a pixel sees where its ray crosses the road plane: a point on the road
+    stays where it is, one on a 15 cm footway lands H / (H - 0.15) as far from the camera's foot
+    along its ray, and a step along the footway keeps its direction (a homothety)."""
+    from types import SimpleNamespace
+
+    cam = SimpleNamespace(x=1.7, y=0.0, z=1.22)
+    level = SimpleNamespace(plane=(0.0, 0.0, 0.0))
+    road = np.array([[13.4, -3.9, 0.0]])
+    assert shadowlook.on_plan(road, level, cam) == pytest.approx(road[:, :2])
+    kerb = np.array([[13.4, -3.9, 0.15], [15.4, -3.4, 0.15]])
+    seen = shadowlook.on_plan(kerb, level, cam)
+    scale = 1.22 / (1.22 - 0.15)
+    foot = np.array([cam.x, cam.y])
+    assert seen == pytest.approx(foot + scale * (kerb[:, :2] - foot))
+    step, seen_step = kerb[1, :2] - kerb[0, :2], seen[1] - seen[0]
+    assert math.degrees(math.atan2(seen_step[1], seen_step[0])) == pytest.approx(math.degrees(math.atan2(step[1], step[0])))
+    # on a plane tilted up ahead, a point on it stays where it is
+    tilted = SimpleNamespace(plane=(0.05, 0.02, 0.0))
+    on = np.array([[12.0, 2.0, 0.05 + 0.02 * (12.0 - 1.7)]])
+    assert shadowlook.on_plan(on, tilted, cam) == pytest.approx(on[:, :2])
