@@ -216,9 +216,19 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
     return frames, cars, real
 
 
+def _sun_off(f: dict) -> float | None:
+    """Degrees (0-90) between the estimated sun's azimuth, the axis along which every inserted
+    object's shadow is thrown on level ground, and the real shadows' axis on the input's ground
+    plan, on a frame called sunny that shows real shadows; None elsewhere."""
+    if not f["sunny"] or f["real_dir"] is None or f["azimuth"] is None:
+        return None
+    return shadowlook.axis_angle(f["azimuth"], f["real_dir"])
+
+
 def report(title: str, frames: list, cars: list, real: list) -> dict:
     print(f"\n== {title}")
-    print(f"{'frame':<28} {'label':<9} {'called':<7} {'edges m':>7} {'sun az/el':>11} {'real dir':>8}  angles | whole")
+    print(f"{'frame':<28} {'label':<9} {'called':<7} {'edges m':>7} {'sun az/el':>11} {'real dir':>8} {'sun off':>7}"
+          "  angles | whole")
     seen = {}
     for f in frames:  # one line per frame (the first seed's light: the estimate is the photo's)
         seen.setdefault(f["frame"], f)
@@ -228,7 +238,8 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         mark = "" if f["label"] == "?" else ("ok" if (f["label"] == "sunny") == f["sunny"] else "MISS")
         print(f"{f['frame']:<28} {f['label']:<9} {('sunny' if f['sunny'] else 'no'):<7} {f['edge_m'] or 0:7.2f} "
               f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
-              f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f}  "
+              f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f} "
+              f"{_sun_off(f) if _sun_off(f) is not None else float('nan'):7.0f}  "
               f"{' '.join(f'{a:.0f}' for a in ang)}{' | whole ' if whole else ''}{' '.join(f'{a:.0f}' for a in whole)} {mark}")
     print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'edge':>6} {'outline':>7} {'rough':>6}"
           f" {'angle':>6} {'sky outline':>11} {'sky rough':>9}")
@@ -254,7 +265,14 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
     rough = [c["rough"] for c in cars if c["rough"] is not None]
     sky_outl = [c["sky_outline"] for c in cars if c.get("sky_outline") is not None]
     sky_rough = [c["sky_rough"] for c in cars if c.get("sky_rough") is not None]
+    # the axis every inserted shadow is thrown along on level ground (the estimated sun's
+    # azimuth) against the real shadows' axis, on the frames called sunny that show one
+    offs = [(_sun_off(f), f["label"]) for f in seen.values() if _sun_off(f) is not None]
     out = {
+        "sun_axis_within_15_of_real_shadows": f"{sum(a <= ANGLE_OK for a, _ in offs)}/{len(offs)}",
+        "sun_axis_within_15_on_frames_labelled_sunny":
+            f"{sum(a <= ANGLE_OK for a, lab in offs if lab == 'sunny')}/{sum(lab == 'sunny' for _, lab in offs)}",
+        "sun_axis_off_max": max((a for a, _ in offs), default=None),
         "sunny_called_sunny": f"{sum(f['sunny'] for f in sunny_l)}/{len(sunny_l)}",
         "overcast_called_sunny": f"{sum(f['sunny'] for f in over_l)}/{len(over_l)}",
         "angles_within_15": f"{sum(a <= ANGLE_OK for a in angles)}/{len(angles)}",
