@@ -69,11 +69,11 @@ def report(name: str, data: Path, count: int, objects: int, keep: Path, seeds: l
           f"{med(rights):.3f}; the left's {med(lefts):.3f}; "
           f"the right photo's PNG read and written {right_codec_cpu(data, count):.3f}")
     cols = ("object_pixels", "matched", "within_1px", "within_1px_both_views", "matched_measurable",
-            "within_1px_measurable", "within_1px_measurable_both_views", "real_within_1px",
+            "within_1px_measurable", "within_1px_measurable_both_views", "within_1px_one_depth", "real_within_1px",
             "real_within_1px_measurable", "residual_at_written",
             "residual_off_half_px", "elsewhere_same", "right_changed")
     print(f"{'seed':>4} {'image set':<38}" + "".join(f"{c:>15}" for c in (
-        "objects px", "matched", "<=1px", "<=1px (both)", "measurable", "<=1px (meas.)", "meas., both", "own <=1px",
+        "objects px", "matched", "<=1px", "<=1px (both)", "measurable", "<=1px (meas.)", "meas., both", "one depth", "own <=1px",
         "own (meas.)",
         "resid. at d", "resid. d+-0.5", "elsewhere same", "right changed")))
     pooled = {"m": 0, "w": 0.0, "mm": 0, "wm": 0.0}

@@ -34,6 +34,10 @@ NUM_DISPARITIES = 256
 #: (sqrt(2) sigma_noise / sqrt(sum of squared horizontal gradients), the matching cost's
 #: curvature) to this many pixels: flat paint, a plain window, a blank plate do not
 MEASURABLE_PX = 0.2
+#: a window holds one surface when the written disparity within it spans at most this (pixels):
+#: a block matcher takes one disparity per window, so where a window straddles a depth edge (an
+#: object's outline, a pane's frame over the street seen through it) it cannot measure both
+ONE_DEPTH_SPAN = 2.0
 
 
 def sgbm(left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -70,6 +74,8 @@ class PairCheck:
     elsewhere_pixels: int  # pixels whose matching windows saw no change
     elsewhere_same: float  # share of those (matched on both pairs) with the same disparity within 1 px
     right_changed: int  # pixels of the right photo that changed
+    #: within_1px_measurable_both_views over the pixels whose window holds one depth (one_depth)
+    within_1px_one_depth: float = float("nan")
 
     def to_dict(self) -> dict:
         return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
@@ -110,6 +116,17 @@ def seen_by_both(disparity: np.ndarray) -> np.ndarray:
     return np.isfinite(disparity) & (after >= x - 0.5)
 
 
+def one_depth(disparity: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels whose matching window (BLOCK x BLOCK) holds one surface of the
+    written disparity: known all over it and spanning at most :data:`ONE_DEPTH_SPAN` pixels."""
+    known = np.isfinite(disparity)
+    d = np.where(known, disparity, 0.0).astype(np.float32)
+    kernel = np.ones((BLOCK, BLOCK), np.uint8)
+    span = cv2.dilate(d, kernel) + cv2.dilate(-d, kernel)
+    whole = cv2.erode(known.astype(np.uint8), kernel) > 0
+    return whole & (span <= ONE_DEPTH_SPAN)
+
+
 def photo_residual(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, mask: np.ndarray,
                    shift: float = 0.0) -> float:
     """Mean |left - right| (8-bit levels, all channels) over ``mask`` with the right photo read
@@ -148,7 +165,9 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     d_in = sgbm(left_in, right_in)
     texture = measurable(left_out)
     matched, within, matched_m, within_m, median = _agreement(d_out, written, objects, texture)
-    _, within_both, _, within_both_m, _ = _agreement(d_out, written, objects & seen_by_both(written), texture)
+    both_views = objects & seen_by_both(written)
+    _, within_both, _, within_both_m, _ = _agreement(d_out, written, both_views, texture)
+    _, _, _, within_one_depth, _ = _agreement(d_out, written, both_views & one_depth(written), texture)
     # the same matcher on the frame's own cars and people, against the input's disparity
     real_matched, real_within, real_within_m = 0, float("nan"), float("nan")
     if ident.path(inputs, "labelIds").exists():
@@ -180,4 +199,4 @@ def check_pair(inputs: Path, outputs: Path, ident: ImageSetId) -> PairCheck:
     return PairCheck(ident.key, int(objects.sum()), matched, within, matched_m, within_m, median, within_both,
                      within_both_m, real_matched,
                      real_within, real_within_m, at, off, int(keep.sum()), float(same.mean()) if same.size else float("nan"),
-                     int(right_changed.sum()))
+                     int(right_changed.sum()), within_1px_one_depth=within_one_depth)

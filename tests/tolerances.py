@@ -232,7 +232,8 @@ def ground_z_tolerance(noise, depth_m: float) -> float:
 
 # --- the right view of the stereo pair (test_right_view.py, test_real_pair.py)
 #: a stereo matcher on the augmented pair: share of the objects' matched pixels with texture to
-#: measure a disparity (stereo_check.measurable) within 1 px of the written one (the issue's target)
+#: measure a disparity (stereo_check.measurable) within 1 px of the written one (the issue's
+#: target; on the real pairs per frame, where the matching window holds one depth: one_depth)
 PAIR_WITHIN_1PX_MEASURABLE_MIN = 0.90
 #: ... and over all the objects' pixels it matched, pooled over a batch's sets (the issue's figure)
 PAIR_WITHIN_1PX_MIN = 0.90

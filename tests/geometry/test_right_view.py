@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from evaluation.stereo_check import check_pair, seen_by_both
+from evaluation.stereo_check import BLOCK, check_pair, one_depth, seen_by_both
 from synthcompose.camera import Camera
 from synthcompose.cli import main
 from synthcompose.geometry.right_view import carry_to_right
@@ -225,3 +225,18 @@ def test_pixels_hidden_from_the_right_camera_are_found_from_the_disparity():
     assert hidden.tolist() == list(range(43, 50))
     assert seen[:, 50:61].all()  # the near block is seen by both
     assert not seen[2, 90] and seen[2, 91]
+
+
+def test_a_window_straddling_a_depth_edge_holds_two_depths():
+    # a near block (disparity 10) in front of a far wall (2), a slanted floor (0.2 px a column)
+    d = np.full((20, 100), 2.0, np.float32)
+    d[:, 50:61] = 10.0
+    d[15:, :] = 5.0 + 0.2 * np.arange(100, dtype=np.float32)[None, :]
+    d[5, 20] = np.nan
+    one = one_depth(d)
+    half = BLOCK // 2
+    row = one[10]
+    assert not row[50 - half:50 + half].any() and not row[61 - half:61 + half].any()  # the block's sides
+    assert row[50 + half:61 - half].all() and row[10:50 - half].all()
+    assert not one[5 - half:5 + half + 1, 20 - half:20 + half + 1].any()  # a window with an unknown pixel
+    assert one[15 + half:20 - half, 10:90].all()  # a slope of 0.8 px over the window is one surface
