@@ -58,6 +58,7 @@ from synthcompose.lighting.light import LightEstimate  # noqa: E402
 from synthcompose.lighting.plan import completed_labels  # noqa: E402
 from synthcompose.look import measures as look  # noqa: E402
 from synthcompose.manifest import load_manifest  # noqa: E402
+from synthcompose.placement.rules import box_corners  # noqa: E402
 from synthcompose.placement.surfaces import frame_for  # noqa: E402
 from synthcompose.run.batch import run_batch  # noqa: E402
 
@@ -122,12 +123,6 @@ def open_sun_batch(manifest: Path, out: Path, frames: list[str]) -> None:
     twin_batch(manifest, out, frames, LightEstimate, "sun_mask", everywhere)
 
 
-def _footprint_3d(m: np.ndarray, extents) -> np.ndarray:
-    """(4, 3) vehicle-frame corners of an object's footprint (its box's base) from its pose."""
-    l, w = extents[0] / 2, extents[1] / 2
-    return np.array([[l, w, 0], [-l, w, 0], [-l, -w, 0], [l, -w, 0]]) @ m[:3, :3].T + m[:3, 3]
-
-
 def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
             sunless: Path | None = None, open_sun: Path | None = None) -> tuple[list, list, list]:
     """(frames, inserted cars, real cars) of one batch's outputs under ``out``; ``sunless``: the
@@ -162,7 +157,8 @@ def measure(root: Path, out: Path, labels: dict[str, str], truth: Path | None,
         if sunny and real_dir is not None and sunless is not None and ident.path(sunless, "record").is_file():
             twin = read_image_set(sunless, ident)
         # each footprint where the plan sees it (a footway's objects stand over the road plane)
-        feet = [shadowlook.on_plan(_footprint_3d(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"]),
+        # (the box's base corners: every other one of box_corners)
+        feet = [shadowlook.on_plan(box_corners(np.array(o["pose"]["vehicle"]["matrix"]), o["extents_m"])[0::2],
                                    plan, src.camera) for o in rec["objects"]]
         fits = shadowlook.cast_shadow_fit(twin.rgb, res.rgb, masks, feet, plan) if twin is not None else None
         # the whole cast shadow: the sun over all the real ground, over the sunless twin
@@ -239,7 +235,7 @@ def report(title: str, frames: list, cars: list, real: list) -> dict:
         print(f"{f['frame']:<28} {f['label']:<9} {('sunny' if f['sunny'] else 'no'):<7} {f['edge_m'] or 0:7.2f} "
               f"{f['azimuth']:5.0f}/{f['elevation']:<5.0f} "
               f"{f['real_dir'] if f['real_dir'] is not None else float('nan'):8.0f} "
-              f"{_sun_off(f) if _sun_off(f) is not None else float('nan'):7.0f}  "
+              f"{off if (off := _sun_off(f)) is not None else float('nan'):7.0f}  "
               f"{' '.join(f'{a:.0f}' for a in ang)}{' | whole ' if whole else ''}{' '.join(f'{a:.0f}' for a in whole)} {mark}")
     print(f"\n{'car (>= 150 px)':<28} {'dist':>5} {'width':>5} {'under':>6} {'edge':>6} {'outline':>7} {'rough':>6}"
           f" {'angle':>6} {'sky outline':>11} {'sky rough':>9}")

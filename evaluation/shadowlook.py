@@ -207,11 +207,10 @@ def on_plan(corners: np.ndarray, plan, camera) -> np.ndarray:
     (raised over that plane) land farther out along their rays. Parallel planes map by a
     homothety from the camera's foot: directions on the footway are kept, positions are not, so
     a footprint on a footway must be moved the same way before its shadow is fitted on the plan."""
-    a, b, c = plan.plane
+    a, b, c = plan.plane  # z = a + b (x - x_c) + c (y - y_c): a under the camera
     eye = np.array([camera.x, camera.y, camera.z], float)
-    p = np.asarray(corners, float)
-    d = p - eye
-    t = (a + b * (eye[0] - camera.x) + c * (eye[1] - camera.y) - eye[2]) / (d[:, 2] - b * d[:, 0] - c * d[:, 1])
+    d = np.asarray(corners, float) - eye
+    t = (a - camera.z) / (d[:, 2] - b * d[:, 0] - c * d[:, 1])
     return (eye + t[:, None] * d)[:, :2]
 
 
