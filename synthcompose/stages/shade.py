@@ -84,6 +84,16 @@ def occluders_in_rows(depth: np.ndarray, bands: list[slice], ground: np.ndarray,
     return out, ground
 
 
+def ground_occluders(depth: np.ndarray, bands: list[slice], labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`occluders_in_rows` with the real ground of ``labels``: the ground whose stereo noise
+    must not hide what lies on it (the compose's band over ground). The shade stage gives the
+    labels the light was measured on: on a frame without labels the found surfaces completed
+    from the depth (``lighting.plan.completed_labels``), so that level ground the finder left
+    unnamed, a leafy footway, is ground too (a far person's sun shadow across such a footway came
+    out in dashes, where the stereo brought the ground nearer than the shadow's plane)."""
+    return occluders_in_rows(depth, bands, label_mask(labels, [label_id(n) for n in GROUND_LEVEL]), labels == 0)
+
+
 @dataclass(frozen=True, eq=False)
 class ObjectLook:
     """How one placed object was shaded."""
@@ -150,9 +160,7 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
         # the rows the compose passes read: the left region of interest's and the right one's
         rois = [passes.roi if passes is not None else None,
                 roi_for(cam.right_camera(), objects, lighting) if image_set.right_rgb is not None else None]
-        occluders, ground = occluders_in_rows(prep.depth, [r.slices[0] for r in rois if r is not None],
-                                              label_mask(frame.label_ids, [label_id(n) for n in GROUND_LEVEL]),
-                                              frame.label_ids == 0)
+        occluders, ground = ground_occluders(prep.depth, [r.slices[0] for r in rois if r is not None], ground_labels)
         scene = SceneLayers(image_set.rgb, image_set.label_ids, image_set.instance_ids, image_set.disparity,
                             occluders, cam.baseline * cam.fx * DISPARITY_SCALE, ground=ground,
                             ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)

@@ -46,3 +46,36 @@ def test_rows_outside_the_bands_are_left_unread():
     depth, ground, _, _, _ = _road_with_specks()
     out, _ = occluders_in_rows(depth, [slice(10, 20)], ground, np.zeros((H, W), bool))
     assert np.isinf(out[:10]).all() and np.isinf(out[20:]).all() and np.isfinite(out[10:20]).all()
+
+
+def test_level_ground_the_finder_left_unnamed_is_ground_to_the_compose():
+    """A frame without labels: a flat street seen by a level camera, its road found but a
+    footway beside it left unnamed (label 0, as a leafy one is), with a speck of the matcher's a
+    metre nearer on it. On the labels the light is measured on (the found surfaces completed from
+    the depth) the footway is ground: the compose's band over ground applies there and its
+    speck takes the ground's depth; on the found labels alone it would hide the shadow there."""
+    from synthcompose.camera import Camera
+    from synthcompose.labels import label_id
+    from synthcompose.lighting.plan import completed_labels
+    from synthcompose.stages.shade import ground_occluders
+
+    h, w = 128, 256
+    cam = Camera(fx=283.0, fy=283.0, u0=128.0, v0=40.0, baseline=0.22, x=1.7, y=0.0, z=1.22, yaw=0.0,
+                 pitch=0.0, roll=0.0, width=w, height=h)
+    rows = np.arange(h, dtype=np.float32)[:, None]
+    with np.errstate(divide="ignore"):
+        depth = np.where(rows > cam.v0 + 2, cam.fy * cam.z / (rows - cam.v0), np.inf).repeat(w, axis=1)
+    depth = depth.astype(np.float32)
+    found = np.where(np.isfinite(depth), label_id("road"), 0).astype(np.uint8)
+    footway = (slice(60, h), slice(190, 240))
+    found[footway] = 0
+    speck = (slice(80, 83), slice(200, 205))
+    flat = depth.copy()
+    depth[speck] -= 1.0
+    completed = completed_labels(found, depth, cam)
+    bands = [slice(0, h)]
+    occluders, ground = ground_occluders(depth, bands, completed)
+    assert ground[footway].all()
+    assert np.allclose(occluders[speck], flat[speck], atol=1e-3)
+    _, ground_found = ground_occluders(depth, bands, found)
+    assert not ground_found[footway].any()
