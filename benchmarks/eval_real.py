@@ -101,12 +101,11 @@ def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str,
     and recall of the found road and sidewalk against gtFine, the footway precision (the found
     sidewalk's share on paved ground a person walks on: sidewalk, parking, ground) and its share
     on ground a person can stand on (those and terrain)."""
+    from eval_surfaces import FOOTWAY, WALKABLE  # benchmarks/ is on the path when run as a script
+
     from synthcompose.io.dataset import labelled_twin
-    from synthcompose.labels import label_id
     from synthcompose.placement.surfaces import ROAD, SIDEWALK, find_surfaces
 
-    footway = [label_id(n) for n in ("sidewalk", "parking", "ground")]
-    walkable = footway + [label_id("terrain")]
     out = []
     for ident in find_image_sets(root):
         twin = labelled_twin(truth, ident)
@@ -120,8 +119,8 @@ def surfaces_against_truth(root: Path, truth: Path) -> list[tuple[str, dict[str,
             fig[f"{name}_precision"] = float((f & g).sum() / max(f.sum(), 1))
             fig[f"{name}_recall"] = float((f & g).sum() / max(g.sum(), 1))
         side = found == SIDEWALK
-        fig["footway_precision"] = float(np.isin(t.label_ids[side], footway).mean()) if side.any() else 0.0
-        fig["sidewalk_on_walkable"] = float(np.isin(t.label_ids[side], walkable).mean()) if side.any() else 0.0
+        fig["footway_precision"] = float(np.isin(t.label_ids[side], FOOTWAY).mean()) if side.any() else 0.0
+        fig["sidewalk_on_walkable"] = float(np.isin(t.label_ids[side], WALKABLE).mean()) if side.any() else 0.0
         out.append((ident.key, fig))
     return out
 

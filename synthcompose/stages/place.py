@@ -267,7 +267,6 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
     reason) of every rejected candidate (the preview shows them)."""
     ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
     objects: list[PlacedObject] = []
-    failures: list[NotPlaced] = []
     taken = _taken_by_polygons(o.dataset, ident)  # instance ids given
     with timed(timings, "placement"):
         if saved is None:  # drawn first, then placed: those that stand on a footway before vehicles
@@ -284,7 +283,7 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
                 objects.append(done)  # the next ones are placed among it
         drawn = [slots[k] for k in sorted(slots)]  # the record lists them as they were drawn
         objects = [d for d in drawn if isinstance(d, PlacedObject)]
-        failures = [d for d in drawn if not isinstance(d, PlacedObject)]
+        failures: list[NotPlaced] = [d for d in drawn if not isinstance(d, PlacedObject)]
         if saved is None and not objects and failures:
             # a frame that got none of its objects tries each of them once more (twice the
             # attempts): a frame with free road or footway gets an object where one fits
