@@ -325,6 +325,11 @@ def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules
 
     tests = PoseTests.of(frame, extents, rules, surfaces_for(class_name, allowed), class_name)
     m = np.asarray(matrix, float)
+    # the distance on the ground plan, as the placement draws and records it (a candidate moved
+    # to its lane's centre or the kerb may leave the range it was drawn in)
+    d = math.hypot(m[0, 3] - frame.camera.x, m[1, 3] - frame.camera.y)
+    if not rules.distance[0] <= d <= rules.distance[1]:
+        return Rejection("outside the distance range", f"{d:.2f} m, the range {rules.distance[0]:g}-{rules.distance[1]:g} m")
     why = tests.image(m, heights=False)
     if why:
         return why

@@ -171,6 +171,7 @@ class PlacementResult:
 
 #: the placement rule each rejection reason belongs to (the preview names it)
 RULE_OF: dict[str, str] = {
+    "outside the distance range": "distance",
     "partly behind the camera": "in view",
     "not fully inside the image": "truncation",
     "footprint outside the image": "ground support",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -163,3 +164,22 @@ def test_check_pose_accepts_what_placement_accepted_and_names_the_rule_a_moved_p
     why = check_pose(fr, "car", SIZES["car"], m, rules)
     assert why is not None and why.rule in set(RULE_OF.values()) - {"min visible pixels"}, why
     assert str(why).startswith(f"{why.rule}: {why.reason}")
+
+
+def test_a_pose_outside_the_distance_range_breaks_the_distance_rule(frame):
+    """The placement draws its candidates within ``rules.distance``, then moves a vehicle to its
+    lane's centre: the pose it returns must still lie in the range, and the checker says so
+    (one rule set). A placed car checked against a range that ends 0.5 m short of it breaks
+    the ``distance`` rule; against one 0.5 m beyond it, it passes."""
+    from synthcompose.placement import check_pose
+
+    scene, arrays, fr = frame
+    rules = PlacementRules()
+    res = place_object(fr, "car", SIZES["car"], np.random.default_rng(3), rules)
+    p = res.placement
+    assert p is not None and rules.distance[0] <= p.distance <= rules.distance[1]
+    short = replace(rules, distance=(rules.distance[0], p.distance - 0.5))
+    why = check_pose(fr, "car", SIZES["car"], p.matrix, short, claim=p.traffic)
+    assert why is not None and why.rule == "distance" and why.reason == "outside the distance range", why
+    wide = replace(rules, distance=(rules.distance[0], p.distance + 0.5))
+    assert check_pose(fr, "car", SIZES["car"], p.matrix, wide, claim=p.traffic) is None
