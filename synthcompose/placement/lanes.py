@@ -14,6 +14,13 @@ carriageway the lanes right of the centre line go with the ego vehicle (+1, alon
 away from the camera), those left of it come towards it (-1); a one-way carriageway goes with
 the ego vehicle; the other half of a dual road goes against it when on its oncoming side. A
 parking strip takes the direction of the lane beside it.
+
+A carriageway taken as one-way has no sign of its direction: no centre line, and the ego vehicle
+not keeping right of its middle. It may as well be a two-way street whose driver keeps to the
+middle, whose left half comes towards us (the frame's own cars parked there face the camera).
+Its lanes beyond the ego vehicle's own lane on its left (right, for left-hand traffic) are
+``untold``: no vehicle is put there, facing either way; the ego vehicle's own lane and those on
+its kerb's side go with it on either street.
 """
 from __future__ import annotations
 
@@ -47,7 +54,8 @@ CENTRE_INSIDE = 0.5
 @dataclass(frozen=True)
 class Lane:
     """A lane across the street (s from ``right`` to ``left``, metres): ``role`` ``moving``,
-    ``parking`` or ``none`` (a cycle lane), ``direction`` +1 with the ego vehicle, -1 against,
+    ``parking``, ``none`` (a cycle lane) or ``untold`` (its direction not seen: no vehicle),
+    ``direction`` +1 with the ego vehicle, -1 against,
     the carriageway's index, and for a parking strip the kerb it runs along (``kerb`` -1 right,
     +1 left, 0 none)."""
 
@@ -166,8 +174,22 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
             centre = ego.left if hand > 0 else ego.right
     # every lane (a parking strip too) goes the way of its side of the centre line
     two_way = cw.side == 0 and centre is not None
-    return [Lane(ln.right, ln.left, ln.role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
-                 else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln in out]
+    return [Lane(ln.right, ln.left, role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
+                 else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln, role in zip(out, _untold(cw, out, ego_s, hand))]
+
+
+def _untold(cw: Carriageway, out: list[Lane], ego_s: float, hand: int) -> list[str]:
+    """Each lane's role, ``untold`` where the ego carriageway is one-way for want of any sign
+    of its direction and the lane lies beyond the ego vehicle's own lane (the moving lane
+    nearest its path) on the oncoming side: there a two-way street's traffic would come
+    towards us."""
+    roles = [ln.role for ln in out]
+    if cw.side != 0 or cw.centre is not None:
+        return roles
+    ego = min((ln for ln in out if ln.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
+    if ego is None:
+        return roles
+    return ["untold" if role != "none" and hand * (ln.centre - ego.centre) > 0 else role for ln, role in zip(out, roles)]
 
 
 def _split_at(lane: Lane, s: float) -> list[Lane]:

@@ -91,6 +91,8 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
     cw = street.carriageways[lane.carriageway]
     if lane.role == "none":
         return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
+    if lane.role == "untold":
+        return Rejection("lane's direction not seen", "beyond the ego lane, no centre line")
     if mode == "moving" and lane.role != "moving":
         return Rejection("not a moving lane", f"a {lane.role} lane")
     if mode == "parked" and lane.role != "parking":

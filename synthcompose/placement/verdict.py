@@ -160,6 +160,8 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
         return None
     if lane.role == "none":
         return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
+    if lane.role == "untold":
+        return Rejection("lane's direction not seen", "beyond the ego lane, no centre line")
     role = "moving" if lane.role == "moving" else "parked"
     if role != claim.role or (orientation in ("moving", "parked") and role != orientation):
         return Rejection("not a moving lane" if role == "parked" else "not a parking place",

@@ -63,7 +63,7 @@ def test_no_parking_strip_over_the_ego_vehicles_path():
     line = StreetLine(0.53, "dashed", 7.0, 20.0, 13.0)
     marked = Carriageway(-2.1, 3.2, (line,), None, 0, "one-way")
     lanes = _carriageway_lanes(marked, 0, 1, row, ego_s=-0.4)
-    assert all(lane.role == "moving" for lane in lanes)
+    assert [lane.role for lane in lanes] == ["moving", "untold"]  # beyond the ego lane on a one-way street
     assert _carriageway_lanes(marked, 0, 1, row, ego_s=1.9)[0].role == "parking"
 
 
@@ -72,4 +72,4 @@ def test_a_line_under_the_ego_vehicles_path_is_no_lane_boundary():
     cw = Carriageway(-2.0, 5.0, (StreetLine(-0.1, "dashed", 7.0, 30.0, 23.0),
                                  StreetLine(2.4, "dashed", 7.0, 30.0, 23.0)), None, 0, "one-way")
     lanes = _carriageway_lanes(cw, 0, 1, {}, ego_s=0.0)
-    assert [(lane.role, lane.right, lane.left) for lane in lanes] == [("moving", -2.0, 2.4), ("moving", 2.4, 5.0)]
+    assert [(lane.role, lane.right, lane.left) for lane in lanes] == [("moving", -2.0, 2.4), ("untold", 2.4, 5.0)]

@@ -12,7 +12,7 @@ import pytest
 from synthcompose.geometry.depth import back_project, disparity_to_depth, make_frame
 from synthcompose.labels import label_id
 from synthcompose.placement import PlacementRules, check_pose, footprint_corners, footprints_overlap, place_object
-from synthcompose.placement.lanes import _carriageway_lanes
+from synthcompose.placement.lanes import _carriageway_lanes, lanes
 from synthcompose.placement.poses import PoseTests
 from synthcompose.placement.rules import PERSON_STANCE, POLE_FOOT, standing_footprint
 from synthcompose.placement.street import Carriageway, StreetLine, find_street
@@ -235,6 +235,36 @@ def test_left_hand_traffic_mirrors_the_directions():
     left_hand = Carriageway(-4.8, 1.6, (StreetLine(-1.6, "dashed", 5.0, 40.0, 20.0),), -1.6, 0, "marking")
     assert [lane.direction for lane in _carriageway_lanes(right_hand, 0, 1, {})] == [1, -1]
     assert [lane.direction for lane in _carriageway_lanes(left_hand, 0, -1, {})] == [-1, 1]
+
+
+def test_a_street_without_a_sign_of_its_direction_has_no_vehicle_beyond_the_ego_lane():
+    """No centre line and the ego vehicle not keeping right of the middle: the street is taken
+    as one-way, but it may be a two-way street whose left half comes towards us. The lanes
+    beyond the ego vehicle's own lane on that side are ``untold`` (no vehicle, either way); on
+    a marked street the same lanes are moving lanes against us; left-hand traffic mirrors it."""
+    unmarked = Carriageway(-4.1, 4.3, (StreetLine(3.7, "dashed", 13.0, 18.0, 5.0),), None, 0, "one-way")
+    got = [(ln.role, ln.direction) for ln in _carriageway_lanes(unmarked, 0, 1, {}, ego_s=-0.26)]
+    assert got == [("moving", 1), ("untold", 1), ("none", 1)]
+    mirrored = Carriageway(-4.3, 4.1, (StreetLine(-3.7, "dashed", 13.0, 18.0, 5.0),), None, 0, "one-way")
+    assert [ln.role for ln in _carriageway_lanes(mirrored, 0, -1, {}, ego_s=0.26)] == ["none", "untold", "moving"]
+    marked = Carriageway(-4.1, 4.3, (StreetLine(0.5, "dashed", 6.0, 40.0, 20.0),), 0.5, 0, "marking")
+    assert [(ln.role, ln.direction) for ln in _carriageway_lanes(marked, 0, 1, {}, ego_s=-2.0)] == \
+        [("moving", 1), ("moving", -1)]
+    # the same on the generated one-way street, found from its photo: every vehicle the placement
+    # returns stands in the ego vehicle's lane or on its kerb's side, and the checker agrees
+    scene, frame = _frame("one-way", 0)
+    street = find_street(frame)
+    found = lanes(frame, street, 1)
+    assert street.ego.centre is None and any(ln.role == "untold" for ln in found)
+    ego = min((ln for ln in found if ln.role == "moving"),
+              key=lambda ln: max(ln.right - street.ego_offset, street.ego_offset - ln.left, 0.0))
+    cars = []
+    for mode in ("along-road", "moving", "parked"):
+        for p in _placed_in_turn(frame, "car", 4, 4, mode):
+            assert p.traffic.lateral_m <= ego.left + 1e-6, (mode, p.traffic)
+            assert check_pose(frame, "car", SIZES["car"], p.matrix, RULES, orientation=mode, claim=p.traffic) is None
+            cars.append(p)
+    assert cars  # the ego vehicle's side still takes them
 
 
 def test_the_generated_street_kinds_keep_the_earlier_streets():
