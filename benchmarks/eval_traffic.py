@@ -8,14 +8,17 @@ centre lines and markings placement found):
 
 * placed / asked (the manifest's objects per set), and placed / drawn for people, signs and
   vehicles (an object that found no place is replaced by one of another kind, a draw of its
-  own: ``redraw_unplaced``); the frames that got no object, and whether
+  own: ``redraw_unplaced``), and per slot's first draw (the kind it was asked as, placed as
+  that kind; the substitutes left out); the frames that got no object, and whether
   they had free road or footway at all (a road or sidewalk pixel in the distance range);
 * **headings**: each vehicle's lateral position s across the street (from its pose, against the
   recorded axis) and its heading against the street's direction there; on a two-way carriageway
   right of the centre line (right-hand traffic) it must face along the street, left of it
   against; on a one-way carriageway along; on the other half of a dual road by its side; a
   vehicle facing the other way is counted "against its lane". Also the issue's plain measure:
-  vehicles within 1.6 m of the camera's line (V's y), ahead of it, facing the camera;
+  vehicles within 1.6 m of the camera's line (V's y), ahead of it, facing the camera; and on a
+  carriageway recorded one-way (no centre line), vehicles beyond the ego vehicle's own lane on
+  the oncoming side, where a two-way street's traffic would come towards us;
 * **markings**: a moving vehicle whose footprint spans a recorded lane marking (a boundary of
   the recorded lanes, or any line seen over 6 m there and not under the ego vehicle's own path,
   at its distance along the street) is "across a lane marking"; a shorter line, or one under
@@ -64,9 +67,27 @@ def _lane_direction(street: dict, s: float, hand: int = 1) -> int | None:
     return None
 
 
+def _beyond_ego_lane(street: dict, s: float, hand: int = 1) -> str | None:
+    """Where a vehicle at offset ``s`` stands beyond the ego vehicle's own lane on the oncoming
+    side of a carriageway recorded one-way (no centre line), or None."""
+    ego_s = street.get("ego_offset_m", 0.0)
+    cws = street["carriageways"]
+    if not cws or cws[0]["side"] != 0 or cws[0]["centre_m"] is not None:
+        return None
+    own = [ln for ln in street.get("lanes", []) if ln["carriageway"] == 0 and ln["role"] == "moving"]
+    if not own:
+        return None
+    ego = min(own, key=lambda ln: max(ln["right_m"] - ego_s, ego_s - ln["left_m"], 0.0))
+    edge = ego["left_m"] if hand > 0 else ego["right_m"]
+    if hand * (s - edge) > 0 and cws[0]["right_m"] <= s <= cws[0]["left_m"]:
+        return f"beyond the ego lane of a one-way street (s {s:.2f} m, its edge {edge:.2f} m)"
+    return None
+
+
 def analyse(out: Path) -> dict:
     counts: Counter[str] = Counter()
     asked, placed = Counter(), Counter()
+    first_asked, substitutes = Counter(), Counter()  # first draws that found no place; placed substitutes
     empty, findings = [], []
     for path in sorted((out / "synthcompose").rglob("*_synthcompose.json")):
         rec = read_record(path)
@@ -79,6 +100,14 @@ def analyse(out: Path) -> dict:
         for obj in rec.objects:
             asked[obj.class_name] += 1
             placed[obj.class_name] += 1
+        # per slot's first draw (the kind the slot was asked as): a substitute, placed or not, is
+        # the batch's retry, not an object of its kind asked (the record names what replaced what)
+        named = {obj.name: obj.class_name for obj in rec.objects}
+        for f in rec.not_placed:
+            if not f.get("substitute_for"):
+                first_asked[f["class"]] += 1
+            if f.get("replaced_by") in named:
+                substitutes[named[f["replaced_by"]]] += 1
         if not rec.objects:
             reasons = Counter()
             for f in rec.not_placed:
@@ -111,6 +140,12 @@ def analyse(out: Path) -> dict:
                 elif want != along:
                     counts["against its lane"] += 1
                     findings.append((rec.image_set, obj.index, obj.name, f"against its lane (s {s:.2f} m)"))
+                beyond = _beyond_ego_lane(street, s)
+                if beyond:
+                    # no centre line and the ego vehicle not keeping right: on a two-way street
+                    # this would be the oncoming half (the lanes there are untold)
+                    counts["beyond the ego lane of a street taken as one-way"] += 1
+                    findings.append((rec.image_set, obj.index, obj.name, beyond))
                 if t.get("role") == "moving":
                     _, cs = to_road(footprint_corners(m, obj.extents_m), b, q)
                     inside = (cs.min() + 0.05, cs.max() - 0.05)
@@ -165,6 +200,9 @@ def analyse(out: Path) -> dict:
         "vehicles": (sum(placed[k] for k in vehicles), sum(asked[k] for k in vehicles)),
         "people": (sum(placed[k] for k in people), sum(asked[k] for k in people)),
         "signs": (sum(placed[k] for k in signs), sum(asked[k] for k in signs)),
+        "first_draws": {name: (sum(placed[k] - substitutes[k] for k in kinds),
+                               sum(placed[k] - substitutes[k] + first_asked[k] for k in kinds))
+                        for name, kinds in (("people", people), ("signs", signs), ("vehicles", vehicles))},
         "frames_without_objects": empty, "counts": dict(counts), "findings": findings,
     }
     return result
@@ -176,6 +214,8 @@ def report(out: Path, r: dict) -> None:
     print(f"placed {r['placed']}/{r['asked']} ({share:.0%}) of the objects asked; of the objects drawn: "
           f"people {r['people'][0]}/{r['people'][1]}, signs {r['signs'][0]}/{r['signs'][1]}, "
           f"vehicles {r['vehicles'][0]}/{r['vehicles'][1]}")
+    print("of the slots first drawn as each kind, placed as drawn (substitutes left out): " +
+          ", ".join(f"{k} {p}/{n}" for k, (p, n) in r["first_draws"].items()))
     print("frames without objects:", r["frames_without_objects"] or "none")
     for k, v in r["counts"].items():
         print(f"  {k}: {v}")
