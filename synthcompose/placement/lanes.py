@@ -32,6 +32,7 @@ import numpy as np
 from synthcompose.geometry.depth import Frame
 
 from .parked import parked_rows
+from .rules import Rejection
 from .street import EGO_HALF_LANE, Carriageway, Street
 from .street_lines import SOLID_RUN
 
@@ -169,7 +170,7 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
     # centre line found says otherwise, the centre is taken at the ego lane's far edge
     if cw.side == 0 and centre is not None:
-        ego = min((lane for lane in out if lane.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
+        ego = _ego_lane(out, ego_s)
         if ego is not None and hand * (centre - ego.centre) < 0:
             centre = ego.left if hand > 0 else ego.right
     # every lane (a parking strip too) goes the way of its side of the centre line
@@ -186,10 +187,25 @@ def _untold(cw: Carriageway, out: list[Lane], ego_s: float, hand: int) -> list[s
     roles = [ln.role for ln in out]
     if cw.side != 0 or cw.centre is not None:
         return roles
-    ego = min((ln for ln in out if ln.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
+    ego = _ego_lane(out, ego_s)
     if ego is None:
         return roles
     return ["untold" if role != "none" and hand * (ln.centre - ego.centre) > 0 else role for ln, role in zip(out, roles)]
+
+
+def _ego_lane(out: list[Lane], ego_s: float) -> Lane | None:
+    """The ego vehicle's own lane: the moving lane nearest its path (at offset ``ego_s``)."""
+    return min((ln for ln in out if ln.role == "moving"), key=lambda m: _gap(m, ego_s), default=None)
+
+
+def no_vehicle_in(lane: Lane) -> Rejection | None:
+    """Why no vehicle stands in ``lane`` whatever it claims (a cycle lane; a lane whose
+    direction nothing tells), or None (the placement and the checker ask the same)."""
+    if lane.role == "none":
+        return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
+    if lane.role == "untold":
+        return Rejection("lane's direction not seen", "beyond the ego lane, no centre line")
+    return None
 
 
 def _split_at(lane: Lane, s: float) -> list[Lane]:

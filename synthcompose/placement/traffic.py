@@ -24,7 +24,7 @@ from synthcompose.labels import label_id
 
 from .claim import Traffic
 from .ends import end_kerb, past_end, street_ends
-from .lanes import Lane, lane_at, lanes, sun_direction_of
+from .lanes import Lane, lane_at, lanes, no_vehicle_in, sun_direction_of
 from .parked import parked_rows
 from .road import road_line
 from .rules import KERB_CLEARANCE, Rejection
@@ -89,10 +89,9 @@ def vehicle_spot(frame: Frame, street: Street, point: np.ndarray, extents, mode:
         return side_street_spot(frame, street, point, extents, mode, rng, jitter, hand)
     l, w, _ = extents
     cw = street.carriageways[lane.carriageway]
-    if lane.role == "none":
-        return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
-    if lane.role == "untold":
-        return Rejection("lane's direction not seen", "beyond the ego lane, no centre line")
+    why = no_vehicle_in(lane)
+    if why:
+        return why
     if mode == "moving" and lane.role != "moving":
         return Rejection("not a moving lane", f"a {lane.role} lane")
     if mode == "parked" and lane.role != "parking":

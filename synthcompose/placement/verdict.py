@@ -28,6 +28,7 @@ from synthcompose.geometry.depth import Frame, back_project
 from synthcompose.labels import label_id
 
 from .claim import Traffic
+from .lanes import no_vehicle_in
 from .rules import GROUND_LEVEL, Rejection, label_mask
 from .street import EGO_HALF_LANE
 from .traffic import (
@@ -158,10 +159,9 @@ def _vehicle(frame: Frame, street, extents, m: np.ndarray, yaw: float, orientati
             return Rejection("facing against its lane" if _angle(yaw, want) > 90 else "not along its lane",
                              f"{_angle(yaw, want):.0f} deg off the side street's lane")
         return None
-    if lane.role == "none":
-        return Rejection("in a cycle lane", f"a {lane.width:.1f} m strip along the kerb")
-    if lane.role == "untold":
-        return Rejection("lane's direction not seen", "beyond the ego lane, no centre line")
+    why = no_vehicle_in(lane)
+    if why:
+        return why
     role = "moving" if lane.role == "moving" else "parked"
     if role != claim.role or (orientation in ("moving", "parked") and role != orientation):
         return Rejection("not a moving lane" if role == "parked" else "not a parking place",
