@@ -98,7 +98,9 @@ def read_input_bytes(path: str | Path, limit: int = MAX_INPUT_BYTES) -> bytes:
         if st.st_size > limit:
             raise InputError(path, f"is {st.st_size} bytes, more than the {limit} an input may have")
         with os.fdopen(fd, "rb", closefd=False) as fh:
-            data = fh.read(limit + 1)
+            # the size fstat saw and a byte more, not the limit: a read of n bytes allocates n
+            # at once (256 MB a file, five files decoded at a time)
+            data = fh.read(st.st_size + 1)
     except OSError as exc:
         raise InputError(path, f"cannot be read ({exc.strerror or exc})") from None
     finally:
