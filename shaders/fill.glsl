@@ -38,6 +38,7 @@ void main() {
 }
 #endif
 #elif defined FRAGMENT_SHADER
+#include "plane_ground.glsl"
 uniform sampler2D u_object_col;  // (object colour, coverage) where an object covers the pixel centre
 uniform sampler2D u_object_key;  // the material there: its base colour factor (lit.glsl's out_key)
 bool same(vec4 a, vec4 b) { return all(lessThan(abs(a - b), vec4(1e-3))); }
@@ -99,6 +100,7 @@ vec4 object_colour(ivec2 p) {
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
 #if defined PLANE
+    if (plane_floats(v_depth)) discard;  // as lit.glsl leaves it out
     out_color = vec4(texelFetch(u_plane_col, p, 0).rgb, 1.0);
     out_alpha = 0.0;
     out_odepth = 0.0;

@@ -45,6 +45,7 @@ void main() {
 }
 #elif defined FRAGMENT_SHADER
 #include "common.glsl"
+#include "plane_ground.glsl"
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
@@ -276,6 +277,7 @@ void main() {
     out_plane = vec4(v_depth, 1.0, 0.0, 1.0);
     out_object = vec4(0.0);
     out_key = vec4(-1.0);
+    if (plane_floats(v_depth)) discard;  // after the derivatives above (plane_ground.glsl)
 #else
     // looked up a little off the surface along its normal, so that a face is not under itself
     float occlusion = object_occlusion(v_world + 0.1 * n, v_world.z - v_ground_z);

@@ -28,6 +28,7 @@ from .values import Lighting, RenderObject
 GL_SRGB8 = 0x8C41  # internal format of the reflection texture: sampled as linear light
 _UNDER_UNIT = 13  # texture unit of the objects' undersides seen from below (contact shadows)
 _GROUND_SKY_UNIT = 14  # texture unit of the sky the ground planes see past the objects
+SCENE_DEPTH_UNIT = 15  # texture unit of the real scene's nearest depth (plane_ground.glsl)
 #: tangent of the sun's angular radius (0.267 degrees): a shadow's edge is this soft per metre
 #: from its caster (shaders/lit.glsl, sun_visibility)
 SUN_RADIUS = math.tan(math.radians(0.267))
@@ -57,7 +58,8 @@ def environment(gl: GLContext, photo: np.ndarray) -> moderngl.Texture:
 
 
 def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting: Lighting, light: Sequence,
-                   env: moderngl.Texture | None, has_sun_mask: bool) -> dict[str, object]:
+                   env: moderngl.Texture | None, has_sun_mask: bool,
+                   has_scene_depth: bool = False) -> dict[str, object]:
     """What every lit variant takes in one render: ``camera`` the full frame's, ``view`` and
     ``proj`` the ROI's; ``light`` (half, sun, sky, under) from
     :func:`~synthcompose.render.shadows.light_matrices`; ``env`` the photo's reflection
@@ -80,6 +82,7 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
         # reflections sample the full photo (see environment)
         "u_env": 4, "u_has_env": env is not None,
         "u_sun_mask": 5, "u_has_sun_mask": has_sun_mask,
+        "u_scene_depth": SCENE_DEPTH_UNIT, "u_has_scene_depth": has_scene_depth,
     }
     if env is not None:
         uniforms.update({
@@ -92,12 +95,13 @@ def frame_uniforms(camera: Camera, view: np.ndarray, proj: np.ndarray, lighting:
 
 def bind_inputs(blank: moderngl.Texture, shadow_textures: Sequence[moderngl.Texture],
                 photo: moderngl.Texture | None, env: moderngl.Texture | None,
-                sun_mask: moderngl.Texture | None) -> None:
+                sun_mask: moderngl.Texture | None, scene_depth: moderngl.Texture | None = None) -> None:
     """Bind one render's textures to lit.glsl's units (``blank`` where there is none: every
     active sampler must see a texture of its own kind); ``shadow_textures``: sun, sky, under,
     the ground's sky."""
     (env if env is not None else blank).use(4)
     (sun_mask if sun_mask is not None else blank).use(5)
+    (scene_depth if scene_depth is not None else blank).use(SCENE_DEPTH_UNIT)
     shadow_textures[0].use(1)
     shadow_textures[1].use(2)
     shadow_textures[2].use(_UNDER_UNIT)

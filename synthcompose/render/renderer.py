@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections import OrderedDict
 from typing import Sequence
 
+import cv2
 import moderngl
 import numpy as np
 
@@ -24,6 +25,19 @@ from .values import FAR, NEAR, Lighting, RenderObject, RenderPasses, Roi, crop_c
 
 #: the lit passes' resolved textures: (name, components), all float32; Ir last
 PASSES = (("irpv", 4), ("alpha", 1), ("odepth", 1), ("plane", 2), ("objc", 4), ("ir", 4))
+
+
+#: the real scene's depth a plane is held against: the nearest within this many pixels across
+#: (plane_ground.glsl), so that the stereo's far specks and holes leave no hole in a plane
+NEAREST_PX = 5
+
+
+def nearest_depth(depth: np.ndarray) -> np.ndarray:
+    """(H, W) float32: the nearest finite depth of ``depth`` within :data:`NEAREST_PX` pixels,
+    0 where there is none (plane_ground.glsl's "unknown")."""
+    d = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(1e9)).astype(np.float32)
+    d = cv2.erode(d, np.ones((NEAREST_PX, NEAREST_PX), np.uint8))
+    return np.ascontiguousarray(np.where(d < 1e9, d, 0.0), np.float32)
 
 
 def _resolve(gl: GLContext, source: moderngl.Framebuffer, targets: list[moderngl.Texture], *done) -> None:
@@ -94,7 +108,8 @@ class Renderer:
 
     def render(self, camera: Camera, objects: Sequence[RenderObject], lighting: Lighting,
                photo: np.ndarray | None = None, roi: Roi | None = None,
-               sun_mask: np.ndarray | None = None, eye: tuple[Camera, np.ndarray] | None = None) -> RenderPasses | None:
+               sun_mask: np.ndarray | None = None, eye: tuple[Camera, np.ndarray] | None = None,
+               scene_depth: np.ndarray | None = None) -> RenderPasses | None:
         """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
 
         ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
@@ -105,6 +120,9 @@ class Renderer:
         the view the view-dependent light (highlights, reflections of the photo) is worked out
         for, when not ``camera``'s: the right view of a stereo pair shows the left view's
         shading, so that a matcher finds the surface's depth in both (stages.right).
+        ``scene_depth`` (H, W) float, full frame: the real scene's depth (metres, inf where
+        unknown); a plane nearer than it by plane_ground.glsl's share is left out there (it
+        floats over lower ground: :func:`nearest_depth`).
         """
         roi = roi or roi_for(camera, objects, lighting)
         if roi is None:
@@ -116,6 +134,7 @@ class Renderer:
         rows, cols = roi.slices
         photo_roi = None if photo is None else np.ascontiguousarray(photo[rows, cols])
         sun_roi = None if sun_mask is None else np.ascontiguousarray(sun_mask[rows, cols], np.float32)
+        depth_roi = None if scene_depth is None else nearest_depth(scene_depth[rows, cols])
         tex: dict[str, moderngl.Texture] = {}
         env = None
         if photo is not None:
@@ -126,20 +145,25 @@ class Renderer:
         light = light_matrices(objects, lighting)  # half, sun, sky, under
         self.shadows.draw(objects, light, self._gpu_model, lighting, self._lit.plane)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
-                                            env, sun_mask is not None)
+                                            env, sun_mask is not None, depth_roi is not None)
+        self._shading.scene_depth(depth_roi is not None)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         bands = row_bands(*size)
+        depth_tex = None
         if len(bands) == 1:  # the whole region at once
             if sun_roi is not None:
                 tex["sun_mask"] = gl.texture(size, 1, sun_roi, dtype="f4")
-            bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), env, tex.get("sun_mask"))
+            depth_tex = None if depth_roi is None else gl.texture(size, 1, depth_roi, dtype="f4")
+            bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), env, tex.get("sun_mask"), depth_tex)
             tex.update(self._lit_passes(objects, lighting, size, view, proj))
         else:  # band by band into the whole region's passes (render.bands)
             whole = {name: gl.texture(size, c, dtype="f4") for name, c in PASSES}
             for band in bands:
-                self._band(objects, lighting, size, view, proj, band, whole, env, photo_roi, sun_roi)
+                self._band(objects, lighting, size, view, proj, band, whole, env, photo_roi, sun_roi, depth_roi)
             tex.update(whole)
+        if depth_tex is not None:
+            gl.free(depth_tex)
         tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
         return RenderPasses(roi, cam, tex, gl)
 
@@ -167,14 +191,14 @@ class Renderer:
 
     def _band(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int], view: np.ndarray,
               proj: np.ndarray, band: tuple[int, int], whole: dict[str, moderngl.Texture], env,
-              photo_roi: np.ndarray | None, sun_roi: np.ndarray | None) -> None:
+              photo_roi: np.ndarray | None, sun_roi: np.ndarray | None, depth_roi: np.ndarray | None) -> None:
         """One band of rows of the region's lit passes, into ``whole`` (:mod:`.bands`)."""
         gl = self.gl
         drawn = with_apron(band, size[1])
         band_size = (size[0], drawn[1] - drawn[0])
         inputs = [None if a is None else gl.texture(band_size, c, np.ascontiguousarray(a[drawn[0]:drawn[1]]), dtype=d)
-                  for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"))]
-        bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1])
+                  for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"), (depth_roi, 1, "f4"))]
+        bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1], inputs[2])
         self._shading.viewport = viewport(drawn, *size)
         try:
             out = self._lit_passes(objects, lighting, band_size, view, proj)

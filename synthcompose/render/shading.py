@@ -15,7 +15,7 @@ from synthcompose.models import Model
 
 from .gl import GLContext
 from .gpu_model import GpuModel
-from .lit import LitDraw
+from .lit import SCENE_DEPTH_UNIT, LitDraw
 from .transforms import gl_mat4
 from .values import Lighting, RenderObject
 
@@ -68,6 +68,10 @@ class PerSample:
         self.gl, self.lit, self.precision = gl, lit, precision
         self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
 
+    def scene_depth(self, given: bool) -> None:
+        """Nothing to set: lit.glsl's uniforms (lit.frame_uniforms) carry whether the real scene's
+        depth is bound."""
+
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):
         """Irpv's multisampled targets drawn (:func:`multisampled`), to resolve (``view`` and
@@ -114,6 +118,12 @@ class PerPixel:
         self.gl, self.fill, self.lit, self.precision = gl, fill, lit, precision
         self._gpu_model = gpu_model
         self.viewport: tuple[int, int, int, int] | None = None  # the band drawn (see framebuffer)
+
+    def scene_depth(self, given: bool) -> None:
+        """Whether the real scene's depth is bound (lit.SCENE_DEPTH_UNIT): fill.glsl's planes are
+        left out where lit.glsl's are (plane_ground.glsl)."""
+        self.fill.planes["u_scene_depth"].value = SCENE_DEPTH_UNIT
+        self.fill.planes["u_has_scene_depth"].value = given
 
     def lit_pass(self, objects: Sequence[RenderObject], lighting: Lighting, size: tuple[int, int],
                  view: np.ndarray, proj: np.ndarray):

@@ -63,7 +63,7 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_sha
         layers["sun"] = np.asarray(sun_mask, np.float32)
     carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=label_mask(scene.label_ids, FRONT_LABELS))
     passes = renderer.render(cam, objects, lighting, photo=photo, roi=roi, sun_mask=carried.get("sun"),
-                             eye=(left, prep.image_set.rgb))
+                             eye=(left, prep.image_set.rgb), scene_depth=carried["depth"])
     if passes is None:
         return photo
     try:

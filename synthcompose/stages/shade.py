@@ -154,7 +154,7 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
             looks.append((albedo, sun, look))
         sun_mask = None if estimate is None else estimate.sun_mask(image_set.rgb, ground_labels)
         passes = renderer.render(cam, objects, lighting, photo=image_set.rgb,  # real shadows on the objects
-                                 sun_mask=sun_mask)
+                                 sun_mask=sun_mask, scene_depth=prep.depth)
     with timed(timings, "compose"):
         noise = placed.noise
         # the rows the compose passes read: the left region of interest's and the right one's

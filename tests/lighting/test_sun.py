@@ -48,13 +48,22 @@ def _pose(x: float, y: float, yaw: float) -> np.ndarray:
     return m
 
 
-def _composite(gl, objects, light, cam=CAMERA):
+def _road_depth(cam: Camera) -> np.ndarray:
+    """(H, W) depth of the flat road z = 0 seen by ``cam`` (inf above the horizon)."""
+    u, v = np.meshgrid(np.arange(cam.width) + 0.0, np.arange(cam.height) + 0.0)
+    rays = np.stack([(u - cam.u0) / cam.fx, (v - cam.v0) / cam.fy, np.ones_like(u)], -1)  # optical, z = 1
+    down = rays @ cam.optical_from_vehicle[:3, :3][:, 2]  # each ray's vehicle z per unit of depth
+    with np.errstate(divide="ignore"):
+        return np.where(down < -1e-6, -cam.position[2] / np.minimum(down, -1e-6), np.inf).astype(np.float32)
+
+
+def _composite(gl, objects, light, cam=CAMERA, scene_depth=None):
     """(photo, output, object index per pixel, plane coverage, ratio Irpv / Ir): a flat grey
     road photo, the objects put in by the ratio of the lit pass's planes (the compose's
     R (Irpv / Ir) where the plane shows), the objects' own pixels white."""
     rng = np.random.default_rng(1)
     photo = np.clip(110 + rng.normal(0, 3, (cam.height, cam.width, 3)), 0, 255).astype(np.uint8)
-    passes = Renderer(gl).render(cam, objects, light, photo=photo)
+    passes = Renderer(gl).render(cam, objects, light, photo=photo, scene_depth=scene_depth)
     irpv, ir = passes.read("irpv")[..., 1], passes.read("ir")[..., 1]
     ids, plane = passes.read("id"), passes.read("plane")[..., 1]
     rows, cols = passes.roi.slices
@@ -99,6 +108,32 @@ def test_a_planes_edge_does_not_cut_another_objects_darkening(gl, car):
     ground = (index == 0) & (index_ba == 0)
     assert (ab[ground] < 0.9).sum() > 1000  # the cars' darkening is there
     assert np.abs(ab[ground] - ba[ground]).max() < PLANE_BORDER_RATIO
+
+
+def test_a_footway_objects_plane_over_the_road_does_not_hide_a_cars_darkening(gl, car):
+    # a sign on a kerb 15 cm up beside a car's rear corner: its plane, at the kerb's height, reaches
+    # over the road behind the car, nearer to the camera than the road there; it wins the depth
+    # test against the car's plane and its points lie a metre from the car, out of its darkening
+    # (leverkusen_000032: a lit box behind the car). Held against the real scene's depth (the flat
+    # road here), that part of it is left out, and the road behind the car is shaded as without the sign
+    sign = load_model("builtin:traffic-sign", (("height", 2.5),))
+    kerb = _pose(9.0, -2.6, 0.0)
+    kerb[2, 3] = 0.15
+    car_at = RenderObject(car, _pose(12.0, -1.2, 0.0), (0.15, 0.15, 0.15))
+    with_sign = [car_at, RenderObject(sign, kerb, (0.15, 0.15, 0.15))]
+    road = _road_depth(CAMERA)
+    behind = np.array([[x, y, 0.0] for x in np.linspace(9.2, 9.6, 5) for y in np.linspace(-1.9, -1.4, 6)])
+    uv = np.rint(CAMERA.project(behind @ CAMERA.optical_from_vehicle[:3, :3].T
+                                + CAMERA.optical_from_vehicle[:3, 3])).astype(int)
+    _, _, index, _, alone = _composite(gl, [car_at], OVERCAST, scene_depth=road)
+    _, _, index_s, _, held = _composite(gl, with_sign, OVERCAST, scene_depth=road)
+    _, _, _, _, floating = _composite(gl, with_sign, OVERCAST)
+    seen = (index[uv[:, 1], uv[:, 0]] == 0) & (index_s[uv[:, 1], uv[:, 0]] == 0)
+    assert seen.sum() >= 20
+    a, h, f = (r[uv[seen, 1], uv[seen, 0]] for r in (alone, held, floating))
+    assert a.mean() < 0.95  # the car darkens the road behind it (0.93)
+    assert np.abs(h - a).max() < 0.03, np.abs(h - a).max()  # (0.007)
+    assert f.mean() > 0.99  # without the scene's depth the floating plane's ground sees the open sky
 
 
 def test_a_car_darkens_the_ground_at_its_foot_as_real_cars_do(gl, car):
