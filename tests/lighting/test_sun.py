@@ -20,6 +20,7 @@ from synthcompose.io.dataset import read_image_set
 from synthcompose.lighting import estimate_lighting, plansun
 from synthcompose.lighting.solar import SunSite
 from synthcompose.models.load import load_model
+from synthcompose.placement.ground_profile import plane_disparity
 from synthcompose.render import Lighting, Renderer, RenderObject
 from synthcompose.synthetic import make_sample
 from synthcompose.synthetic.light import sunny_light
@@ -50,11 +51,9 @@ def _pose(x: float, y: float, yaw: float) -> np.ndarray:
 
 def _road_depth(cam: Camera) -> np.ndarray:
     """(H, W) depth of the flat road z = 0 seen by ``cam`` (inf above the horizon)."""
-    u, v = np.meshgrid(np.arange(cam.width) + 0.0, np.arange(cam.height) + 0.0)
-    rays = np.stack([(u - cam.u0) / cam.fx, (v - cam.v0) / cam.fy, np.ones_like(u)], -1)  # optical, z = 1
-    down = rays @ cam.optical_from_vehicle[:3, :3][:, 2]  # each ray's vehicle z per unit of depth
+    disparity = plane_disparity(cam, np.arange(cam.height), cam.width)
     with np.errstate(divide="ignore"):
-        return np.where(down < -1e-6, -cam.position[2] / np.minimum(down, -1e-6), np.inf).astype(np.float32)
+        return np.where(disparity > 0, cam.fx * cam.baseline / disparity, np.inf).astype(np.float32)
 
 
 def _composite(gl, objects, light, cam=CAMERA, scene_depth=None):
