@@ -212,7 +212,6 @@ vec3 environment(vec3 p, vec3 r, float roughness) {
     float t = 30.0;
     if (r.z < -0.02) t = min((v_ground_z - p.z) / r.z, 30.0);
     vec4 o = u_env_view * vec4(p + max(t, 0.0) * r, 1.0);
-    if (dot(o.xyz, o.xyz) < 0.25) return fallback;
     // the frame's angular extent along its x and y axes; a point outside it (behind the camera,
     // above the image, to the sides) is folded back into it, angles kept: the street behind and
     // above the frame looks like the street in it
@@ -222,7 +221,17 @@ vec3 environment(vec3 p, vec3 r, float roughness) {
     vec2 x = (a - lo) / (hi - lo);
     a = lo + (hi - lo) * (1.0 - abs(mod(x, 2.0) - 1.0));
     vec2 uv = u_env_k.xy * tan(a) + u_env_k.zw;
-    vec3 photo = textureLod(u_env, uv, clamp(roughness * u_env_lods, 0.0, u_env_lods)).rgb;
+    // the lookup's footprint: where the next pixels' rays land far apart in the photo (a curved
+    // or coarsely modelled panel), the pixel reflects all of the photo between them, not one
+    // sharp point of it (the aliased shards and jagged lines of a crease). A texture seen
+    // directly gets that filtering; textureLod's explicit level turns it off. The level whose
+    // texels are half the step to the next pixel's ray: its linear taps, two texels wide, then
+    // span the step. The derivatives are taken before any return (uniform control flow)
+    vec2 texels = vec2(textureSize(u_env, 0));
+    float footprint = max(length(dFdx(uv) * texels), length(dFdy(uv) * texels));
+    float lod = max(roughness * u_env_lods, log2(max(footprint, 2.0)) - 1.0);
+    if (dot(o.xyz, o.xyz) < 0.25) return fallback;
+    vec3 photo = textureLod(u_env, uv, clamp(lod, 0.0, u_env_lods)).rgb;
     // steeply upwards: the open sky between the roofs
     return mix(photo, u_sky_rgb, smoothstep(0.75, 1.0, r.z));
 }
