@@ -49,14 +49,13 @@ def main(argv=None) -> int:
     for yaw in a.yaws:
         sky, sun = light_grid(yaw, None if a.sun is None else tuple(a.sun))
         for d in a.distances:
-            src, out, car = picture(d, yaw, sky, None)
+            src, out, out_sun, car = picture(d, yaw, sky, sun)
             width = int(np.ptp(np.nonzero(car.any(axis=0))[0]) + 1)
             line = shadowlook.outline(src, out, [car])[0]
             under = shadowlook.under(out, car, ~car)
             edge = shadowlook.under_edge(out, car, ~car)
             with_sun = "-"
-            if sun is not None:
-                _, out_sun, _ = picture(d, yaw, sky, sun)
+            if out_sun is not None:
                 with_sun = shadowlook.outline(src, out_sun, [car])[0]
                 over += with_sun > 0.2
                 with_sun = f"{with_sun:.2f}"

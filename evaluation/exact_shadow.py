@@ -15,7 +15,7 @@ import math
 import cv2
 import numpy as np
 
-from synthcompose.colour import SRGB8_TO_LINEAR
+from synthcompose.colour import SRGB8_TO_LINEAR, linear_to_srgb
 
 W, H, F, CX, CY, CAM_H = 2048, 1024, 2262.0, 1024.0, 513.0, 1.22
 #: the car's parts: (x0, x1) across, (y0, y1) along, (z0, z1) up, metres in its own frame
@@ -103,10 +103,11 @@ def light_grid(yaw: float, sun: tuple[float, float] | None, step: float = STEP, 
 
 
 def picture(distance: float, yaw: float, sky: np.ndarray, sun: np.ndarray | None
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(input, output, car mask) of the car at ``distance`` straight ahead: the road and the car
-    flat greys, the output the road's grey times the light that reaches it (``sky`` and ``sun``
-    from :func:`light_grid` for the same yaw)."""
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """(input, output under the sky alone, output with the sun or None, car mask) of the car at
+    ``distance`` straight ahead: the road and the car flat greys, each output the road's grey
+    times the light that reaches it (``sky`` and ``sun`` from :func:`light_grid` for the same
+    yaw); the car is traced once for both."""
 
     v, u = np.mgrid[0:H, 0:W].astype(np.float64)
     rays = np.stack([(u - CX) / F, np.ones_like(u), -(v - CY) / F], -1)
@@ -133,11 +134,11 @@ def picture(distance: float, yaw: float, sky: np.ndarray, sun: np.ndarray | None
         s = cv2.remap(grid.astype(np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return np.where(ground, s, 1.0)
 
-    light = sample(sky)
-    if sun is not None:
-        light = (light + SUN_TO_SKY * sample(sun)) / (1 + SUN_TO_SKY)
-    lin = SRGB8_TO_LINEAR[ROAD] * light
-    out = np.round(255 * np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055))
-    out = np.where(car, BODY, out).astype(np.uint8)
+    def written(light):  # the road's grey in that light, the car its own, as 8-bit sRGB
+        out = np.round(255 * linear_to_srgb(SRGB8_TO_LINEAR[ROAD] * light))
+        return np.repeat(np.where(car, BODY, out).astype(np.uint8)[..., None], 3, 2)
+
+    sky_light = sample(sky)
+    with_sun = None if sun is None else written((sky_light + SUN_TO_SKY * sample(sun)) / (1 + SUN_TO_SKY))
     src = np.where(car, BODY, ROAD).astype(np.uint8)
-    return np.repeat(src[..., None], 3, 2), np.repeat(out[..., None], 3, 2), car
+    return np.repeat(src[..., None], 3, 2), written(sky_light), with_sun, car

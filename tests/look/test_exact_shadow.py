@@ -9,7 +9,7 @@ from evaluation.exact_shadow import light_grid, picture
 
 def test_an_exact_overcast_shadow_of_a_car_reads_as_an_outline():
     sky, _ = light_grid(90, None, step=0.15, sky_dirs=16)
-    src, out, car = picture(15, 90, sky, None)
+    src, out, _, car = picture(15, 90, sky, None)
     # the straight lines are the car's own: its sills' and bumpers' edges cast on the road
     assert shadowlook.outline(src, out, [car])[0] > 0.2
     # and the dark band's edge under it is as sharp as the real cars' (0.11-0.24 on the labelled
