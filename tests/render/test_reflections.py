@@ -25,13 +25,15 @@ def _mirror_facing_the_camera() -> Model:
     return Model("test-mirror", (part,), (0.05, 2.0, 1.6))
 
 
-def _mirror_render(gl, photo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(lit colour, coverage) of the mirror 8 m ahead, reflecting ``photo``, full-frame arrays."""
+def _mirror_render(gl, photo: np.ndarray, mirror: Model | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(lit colour, coverage) of ``mirror`` (default: the flat one) 8 m ahead, reflecting
+    ``photo``, full-frame arrays."""
     cam = make_camera()
     pose = np.eye(4)
     pose[:3, 3] = (8.0, 0.0, 0.0)
     renderer = Renderer(gl)
-    passes = renderer.render(cam, [RenderObject(_mirror_facing_the_camera(), pose, (0.2, 0.2, 0.2))], LIGHT, photo=photo)
+    mirror = mirror if mirror is not None else _mirror_facing_the_camera()
+    passes = renderer.render(cam, [RenderObject(mirror, pose, (0.2, 0.2, 0.2))], LIGHT, photo=photo)
     colour = np.zeros((cam.height, cam.width, 3), np.float32)
     alpha = np.zeros((cam.height, cam.width), np.float32)
     colour[passes.roi.slices] = passes.read("objc")[..., :3]
@@ -102,12 +104,8 @@ def test_a_curved_panel_reflects_the_photo_filtered_over_its_footprint(gl_clean)
     cols = np.arange(cam.width)
     photo = np.where(((cols // 3) % 2 == 0)[None, :, None], 40, 220).astype(np.uint8)  # 3 px stripes
     photo = np.ascontiguousarray(np.broadcast_to(photo, (cam.height, cam.width, 3)))
-    pose = np.eye(4)
-    pose[:3, 3] = (8.0, 0.0, 0.0)
-    renderer = Renderer(gl_clean)
-    passes = renderer.render(cam, [RenderObject(_bent_mirror(), pose, (0.2, 0.2, 0.2))], LIGHT, photo=photo)
-    lum, alpha = passes.read("objc")[..., 1], passes.read("alpha")
-    renderer.release(passes)
+    colour, alpha = _mirror_render(gl_clean, photo, _bent_mirror())
+    lum = colour[..., 1]
     inner = alpha > 0.999
     rows, cols_ = np.nonzero(inner)
     band = lum[rows.min() + 3:rows.max() - 2, cols_.min() + 3:cols_.max() - 2]
