@@ -54,6 +54,9 @@ KERB_MIN, KERB_MAX = 0.05, 0.35
 LEVEL_SIDEWALK = True
 #: a patch with road this close (working pixels) on both sides along its row lies in the road
 ENCLOSED_PX = 24
+#: level, not road-coloured ground with road on both sides within this along its row is paint
+#: on the carriageway, not a footway (metres)
+PAINT_M = 1.5
 #: level ground: within this height of the road profile (or the noise band), metres
 LEVEL_BAND = 0.05
 #: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
@@ -133,6 +136,10 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     small = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
     lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
     hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
+    # saturation as a region has it: a paving's joints and grit scatter single pixels over the
+    # grass test (a median of 5 pixels leaves them out and keeps a verge's edge where it is; a
+    # mean would spread the verge's saturation onto the footway beside it)
+    hsv[..., 1] = cv2.medianBlur(hsv[..., 1], 5)
     seed = _seed(level, z)
     # grass is green against the road: Cityscapes photos are greenish grey all over, so the
     # test is relative to the saturation of the level ground in front of the car
@@ -175,6 +182,11 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # sides along the row (a traffic island's noise, a manhole) are left out
     enclosed = _between(road, ENCLOSED_PX)  # the road is final from here
     side &= ~enclosed
+    # level ground (no kerb) with road within PAINT_M on both sides along its row is paint on
+    # the carriageway (an arrow, a hatched area): a footway level with the road lies beside it
+    with np.errstate(invalid="ignore", divide="ignore"):
+        paint_reach = np.nan_to_num(PAINT_M * sub.fx / z, nan=0.0)
+    side &= ~(level & _between(road, np.maximum(paint_reach, ENCLOSED_PX)))
     # beside the road: touching it (a kerb between them), not across grass or a wall
     near_road = cv2.dilate(road.astype(np.uint8), np.ones((2 * TOUCH_PX + 1,) * 2, np.uint8)).astype(bool)
     side = _beside(side, near_road)
@@ -244,9 +256,9 @@ def _object_foot(height: np.ndarray, z: np.ndarray, fy: float) -> np.ndarray:
     return out
 
 
-def _between(mask: np.ndarray, reach: int) -> np.ndarray:
-    """(h, w) bool: pixels with a ``mask`` pixel within ``reach`` pixels to the left and to the
-    right along their row."""
+def _between(mask: np.ndarray, reach) -> np.ndarray:
+    """(h, w) bool: pixels with a ``mask`` pixel within ``reach`` pixels (a number, or one per
+    pixel) to the left and to the right along their row."""
     left, right = nearest_in_row(mask)  # -1 and W where there is none: too far from any pixel
     cols = np.arange(mask.shape[1], dtype=np.int32)
     return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)

@@ -190,3 +190,48 @@ def test_a_low_kerb_over_a_cambered_road_bounds_the_footway(seed):
     assert (labels[near] == ROAD).mean() < KERB_FOOTWAY_AS_ROAD_MAX
     assert (truth[side] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_MIN
     assert (labels[truth == ROAD] == SIDEWALK).mean() < 0.01  # the cross street's carriageway too
+
+
+def test_paint_on_the_carriageway_is_no_footway():
+    """A white arrow or hatched area on the road is level with it and not of its colour, the
+    finder's mark of a footway level with the road; with road on both sides within
+    :data:`PAINT_M` along its rows it is paint (leverkusen_000057: an arrow found as footway)."""
+    scene = random_scene(np.random.default_rng([31, 0]), 1024, 512, street="two-way")
+    arrays = render_scene(scene)
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    rgb = arrays["rgb"].copy()
+    # an arrow-sized patch of white paint (about 1 m across) on the road 10-14 m ahead
+    rows, cols = np.nonzero((truth == ROAD) & (z > 10) & (z < 14))
+    v0, v1 = rows.min(), rows.max()
+    u_mid = int(np.median(cols))
+    half = int(0.5 * scene.camera.fx / 12.0)
+    paint = np.zeros(truth.shape, bool)
+    paint[v0:v1, u_mid - half:u_mid + half] = True
+    paint &= truth == ROAD
+    rgb[paint] = (215, 215, 210)
+    labels = find_surfaces(arrays["disparity"], rgb, scene.camera).labels
+    assert paint.sum() > 500
+    assert (labels[paint] == SIDEWALK).mean() < 0.02
+
+
+def test_grit_on_a_footway_leaves_it_footway():
+    """A footway's joints, grit and fallen leaves scatter single pixels as saturated as grass
+    over it; the grass test reads a region's saturation (a 5-pixel median), so the footway is
+    found as before (real paving: 10-12 units more saturated than the road, a fifth of its
+    pixels over the grass test pixel by pixel; grass 40-50)."""
+    scene = random_scene(np.random.default_rng([31, 0]), 1024, 512, street="two-way")
+    arrays = render_scene(scene)
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    near = (truth == SIDEWALK) & (z < 25)
+    clean = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels == SIDEWALK
+    rgb = arrays["rgb"].copy()
+    # grit in clumps of 4 x 4 pixels (2 x 2 of the finder's working pixels)
+    coarse = np.random.default_rng(5).random((truth.shape[0] // 4, truth.shape[1] // 4)) < 0.2
+    grit = near & np.kron(coarse, np.ones((4, 4), bool)).astype(bool)
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+    hsv[..., 1][grit] = np.clip(hsv[..., 1][grit].astype(int) + 2 * GRASS_SATURATION, 0, 255)
+    strewn = find_surfaces(arrays["disparity"], cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB), scene.camera).labels
+    assert clean[near].mean() > SIDEWALK_FOUND_RECALL_MIN
+    assert (strewn == SIDEWALK)[near].mean() > 0.9 * clean[near].mean()
