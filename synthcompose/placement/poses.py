@@ -301,9 +301,24 @@ class PoseTests:
         if inside >= rules.min_collision_points:
             return Rejection("intersects the scene", f"{inside} scene points inside the box")
         deepest = penetration(pts, m, self.extents, clearance)
+        if deepest <= MAX_PENETRATION and stride > 1:
+            # check-placement measures every pixel of the box: a pole or a branch between the
+            # samples counts there, so it counts here (the samples passed: once per pose)
+            deepest = deepest_scene_point(frame, m, self.extents, clearance)
         if deepest > MAX_PENETRATION:
             return Rejection("intersects the scene", f"a scene point {deepest:.2f} m inside the box")
         return None
+
+
+def deepest_scene_point(frame: Frame, m: np.ndarray, extents, clearance: float) -> float:
+    """How deep the deepest real scene point (every pixel of the box's rectangle) reaches into
+    the object's box above ``clearance``, metres: placement's last scene test and
+    check-placement's ``penetration_m``."""
+    rect = frame.box_rect(box_corners(m, extents))
+    if rect is None:
+        return 0.0
+    pts, _ = frame.rect_points(*rect)
+    return penetration(pts, m, extents, clearance)
 
 
 def scene_clearance(noise: StereoNoise, z: float, floor: float) -> float:

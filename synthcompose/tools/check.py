@@ -41,11 +41,11 @@ from synthcompose.placement import (
     footprint_support,
     frame_noise,
     local_ground,
-    penetration,
     road_line,
     scene_clearance,
 )
 from synthcompose.placement.claim import Traffic
+from synthcompose.placement.poses import deepest_scene_point
 from synthcompose.placement.rules import UPRIGHT, rules_from, standing_footprint
 from synthcompose.placement.saved_poses import placement_from_pose
 from synthcompose.placement.surfaces import frame_for
@@ -146,13 +146,8 @@ def check_record(record: ImageSetRecord, rules: PlacementRules = PlacementRules(
         fit = local_ground(frame, m[:3, 3], math.hypot(l, w) / 2 + 0.5, allowed, noise)
         gap = ground_gap(fit, m, grid, obj.class_name)
         # penetration of scene points into the box (above the ground's noise band)
-        box = np.array([[sx * l / 2, sy * w / 2, zz] for sx in (-1, 1) for sy in (-1, 1) for zz in (0, h)])
-        rect = frame.box_rect(box @ m[:3, :3].T + m[:3, 3])
-        pen = 0.0
-        if rect is not None:
-            pts, _ = frame.rect_points(*rect)
-            z = float(frame.to_optical(m[:3, 3][None])[0, 2])
-            pen = penetration(pts, m, (l, w, h), scene_clearance(noise, z, rules.clearance))
+        z = float(frame.to_optical(m[:3, 3][None])[0, 2])
+        pen = deepest_scene_point(frame, m, (l, w, h), scene_clearance(noise, z, rules.clearance))
         # heading against the lane's direction (traffic sense) or the local kerb line
         claim = Traffic.from_dict(obj.traffic)
         yaw_err = None

@@ -208,3 +208,39 @@ def test_candidates_whose_top_leaves_the_image_are_only_spots_every_pose_rejects
         rejection = tests.image(m, heights=False)
         assert rejection is not None and rejection.reason == "not fully inside the image"
     assert pool.z[top].min() > pool.z[~top].max() - 1.0  # the nearer spots are left out
+
+
+def test_a_pole_between_the_scene_samples_still_intersects_the_box():
+    """Placement samples a box's rectangle every few pixels for scene points inside it;
+    check-placement measures every pixel. A thin pole between the samples (a real sign's
+    post, one pixel wide) is inside the box for both: the placement measures every pixel once
+    the samples pass (leverkusen_000032: a sign placed through a post, then failed by the
+    checker's penetration 0.058 m)."""
+    from synthcompose.placement.boxes import pose_matrix
+    from synthcompose.placement.poses import SCENE_SPACING, PoseTests, deepest_scene_point, scene_clearance
+    from synthcompose.placement.rules import MAX_PENETRATION, box_corners
+    from synthcompose.placement.search import candidates
+
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512)
+    arrays = render_scene(scene)
+    cam = scene.camera
+    frame = make_frame(disparity_to_depth(arrays["disparity"], cam), arrays["label_ids"], cam)
+    extents, rules = (0.6, 0.6, 1.75), PlacementRules()
+    pool = candidates(frame, np.array([label_id("sidewalk")]), (9.0, 12.0))
+    m = pose_matrix(pool.point(len(pool.z) // 2).astype(float), np.array([0.0, 0.0, 1.0]), 0.0)
+    assert PoseTests.of(frame, extents, rules, ("sidewalk",), "person").scene(m) is None
+    # a one-pixel post through the box's middle, on a column the samples skip
+    z = float(frame.to_optical(m[:3, 3][None])[0, 2])
+    stride = int(np.clip(SCENE_SPACING * cam.fx / z, 1, 4))  # the samples' spacing there
+    assert stride > 1
+    r0, r1, c0, c1 = frame.box_rect(box_corners(m, extents, rules.margin))
+    (u, v_foot), (_, v_top) = cam.project(frame.to_optical(np.array([m[:3, 3], m[:3, 3] + [0, 0, 1.5]])))
+    u = int(round(u))
+    u += 1 if (u - max(c0, 0)) % stride == 0 else 0
+    depth = frame.depth.copy()
+    depth[int(v_top):int(v_foot) - 20, u] = z
+    posted = make_frame(depth, arrays["label_ids"], cam)
+    clearance = scene_clearance(frame_noise(posted), z, rules.clearance)
+    assert deepest_scene_point(posted, m, extents, clearance) > MAX_PENETRATION
+    why = PoseTests.of(posted, extents, rules, ("sidewalk",), "person").scene(m)
+    assert why is not None and why.reason == "intersects the scene"
