@@ -136,23 +136,26 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     small = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
     lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
     hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
-    # saturation as a region has it: a paving's joints and grit scatter single pixels over the
-    # grass test (a median of 5 pixels leaves them out and keeps a verge's edge where it is; a
-    # mean would spread the verge's saturation onto the footway beside it)
-    hsv[..., 1] = cv2.medianBlur(hsv[..., 1], 5)
     seed = _seed(level, z)
     # grass is green against the road: Cityscapes photos are greenish grey all over, so the
     # test is relative to the saturation of the level ground in front of the car
     s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
     b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
-    green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & ((hsv[..., 1] >= s_road + GRASS_SATURATION)
-                                                          | (lab[..., 2] >= b_road + GRASS_YELLOW))
-    # the road is kept off grass by saturation alone: sunlight is yellower than the skylight
-    # of a shadow, so sunlit asphalt beside a shaded seed is b* units yellower, never greener
-    grass = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95) & (hsv[..., 1] >= s_road + GRASS_SATURATION)
-    lane = _lane(level & ~grass, seed & ~grass, z, sub)
-    models = _road_models(lab, seed & ~grass, lane)
-    road = _road(level & ~grass, (seed | lane) & ~grass, lab, models)
+    hue_green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95)
+    # the road is kept off grass by saturation alone, pixel by pixel: sunlight is yellower than
+    # the skylight of a shadow, so sunlit asphalt beside a shaded seed is b* units yellower,
+    # never greener (and a sunlit paving's saturated grit keeps the road off it)
+    grass_px = hue_green & (hsv[..., 1] >= s_road + GRASS_SATURATION)
+    lane = _lane(level & ~grass_px, seed & ~grass_px, z, sub)
+    models = _road_models(lab, seed & ~grass_px, lane)
+    road = _road(level & ~grass_px, (seed | lane) & ~grass_px, lab, models)
+    # a footway's and a verge's grass test reads saturation as a region has it: a paving's
+    # joints and grit scatter single pixels over it (a median of 5 pixels leaves them out and
+    # keeps a verge's edge where it is; a mean would spread the verge's saturation onto the
+    # footway beside it)
+    sat = cv2.medianBlur(hsv[..., 1], 5)
+    green = hue_green & ((sat >= s_road + GRASS_SATURATION) | (lab[..., 2] >= b_road + GRASS_YELLOW))
+    grass = hue_green & (sat >= s_road + GRASS_SATURATION)
     # level ground with road on both sides along its row is the road's (lane markings, patches)
     road |= level & ~road & _between(road, ENCLOSED_PX)
     # the foot of a car or a wall (its fattened disparity reads as raised ground) is none
@@ -201,7 +204,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # saturated than the road (level green is left out: sunlit asphalt and a crossing's
     # paving read as yellower too, and a sign must not stand on the carriageway)
     verdant = (hsv[..., 0] >= 25) & (hsv[..., 0] <= VERGE_HUE_MAX) & (lab[..., 2] >= b_road + GRASS_YELLOW) \
-        & (hsv[..., 1] >= s_road + VERGE_SATURATION)
+        & (sat >= s_road + VERGE_SATURATION)
     # or as saturated as grass, if not yellower (dull grass, a strip under fallen leaves)
     verdant |= grass & (hsv[..., 0] <= VERGE_HUE_MAX)
     verge = raised & verdant & ~road & ~side & ~foot & ~enclosed
