@@ -84,6 +84,27 @@ class SceneLayers:
     ground_band: float = 0.0  # K sigma_d / (f B): over ground, the in-front band is this * z^2
 
 
+
+#: the camera-match noise is drawn in tiles of this many pixels, each from (seed, tile row, tile column)
+NOISE_TILE = 64
+
+
+def frame_noise(seed: int, rows: slice, cols: slice) -> np.ndarray:
+    """(h, w, 3) float32 standard normal noise of a region of the frame, each pixel's value fixed
+    by its place in the frame and the seed, not by the region: a region a pixel larger (a pose
+    a hair different on another CPU's arithmetic) keeps every other pixel's noise, and the
+    bands of a large region join without a seam. Drawn per :data:`NOISE_TILE` square tile."""
+    t = NOISE_TILE
+    out = np.empty((rows.stop - rows.start, cols.stop - cols.start, 3), np.float32)
+    for ty in range(rows.start // t, (rows.stop - 1) // t + 1):
+        for tx in range(cols.start // t, (cols.stop - 1) // t + 1):
+            tile = np.random.default_rng([int(seed), ty, tx]).standard_normal((t, t, 3), np.float32)
+            y0, y1 = max(rows.start, ty * t), min(rows.stop, (ty + 1) * t)
+            x0, x1 = max(cols.start, tx * t), min(cols.stop, (tx + 1) * t)
+            out[y0 - rows.start:y1 - rows.start, x0 - cols.start:x1 - cols.start] = \
+                tile[y0 - ty * t:y1 - ty * t, x0 - tx * t:x1 - tx * t]
+    return out
+
 class Composer:
     """Runs the compose shader with the shared :class:`GLContext`."""
 
@@ -144,8 +165,7 @@ class Composer:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
         noise_on = any(v > 0 for v in match.noise_sigma)
         if noise_on:  # seeded in NumPy: the same seed gives the same bytes on any machine
-            noise = np.random.default_rng(match.seed).standard_normal((roi.height, roi.width, 3), np.float32)
-            made["u_noise"] = gl.texture(size, 3, noise, dtype="f4")
+            made["u_noise"] = gl.texture(size, 3, frame_noise(match.seed, rows, cols), dtype="f4")
         if match.blur_radius and "objc" not in passes.textures:
             raise ValueError("blurring the object layer needs the render's 'objc' pass")
         inputs = dict(made)

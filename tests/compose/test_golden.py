@@ -1,6 +1,7 @@
 """Golden end-to-end images: a tiny deterministic batch (one generated 256 x 128 image set per
 case, the builtin box and traffic sign, `synthcompose batch` as a user runs it) whose labelIds
-and instanceIds must equal the stored ones exactly and whose photo must stay within the named
+and instanceIds must equal the stored ones but for a few pixels on an object's outline (another
+CPU's rounding moves an outline by a pixel: GOLDEN_LABEL_EDGE_PIXELS) and whose photo must stay within the named
 tolerances of the stored one (tests/tolerances.py, GOLDEN_RGB_*: drivers round and filter a
 little differently, so a few pixels may move by a few levels; a change to the light, the
 shadows, the tone, the noise or the blur moves hundreds).
@@ -33,7 +34,7 @@ from synthcompose.cli import main
 from synthcompose.synthetic import make_sample
 
 from ..helpers import write_manifest
-from ..tolerances import GOLDEN_RGB_MAX_8BIT, GOLDEN_RGB_MAX_SHARE, GOLDEN_RGB_PIXEL_8BIT
+from ..tolerances import GOLDEN_LABEL_EDGE_PIXELS, GOLDEN_RGB_MAX_8BIT, GOLDEN_RGB_MAX_SHARE, GOLDEN_RGB_PIXEL_8BIT
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"
 UPDATE = os.environ.get("SYNTHCOMPOSE_UPDATE_GOLDEN") == "1"
@@ -102,12 +103,26 @@ def test_labels_and_instances_equal_the_golden(outputs, kind, tmp_path):
     golden, got = _golden(case, kind), images[kind]
     assert got.shape == golden.shape and got.dtype == golden.dtype, (got.shape, got.dtype, golden.dtype)
     differs = got != golden
-    if differs.any():
+    # another CPU's rounding (OpenBLAS picks its kernels by CPU) may move an outline by a pixel:
+    # such pixels lie on an edge of the golden's labels, and there are few of them
+    stray = differs & ~_edges(golden)
+    if stray.any() or differs.sum() > GOLDEN_LABEL_EDGE_PIXELS:
         ys, xs = np.nonzero(differs)
         diff = np.where(differs, 255, 0)
         path = _write_diff(tmp_path, case, kind, golden, got, differs, diff)
-        pytest.fail(f"{case} {kind}: {differs.sum()} pixels differ from {golden_path(case, kind)} "
-                    f"(rows {ys.min()}-{ys.max()}, columns {xs.min()}-{xs.max()}); see {path}")
+        pytest.fail(f"{case} {kind}: {differs.sum()} pixels differ from {golden_path(case, kind)}, "
+                    f"{stray.sum()} of them off its labels' edges (allowed: {GOLDEN_LABEL_EDGE_PIXELS} on "
+                    f"the edges) (rows {ys.min()}-{ys.max()}, columns {xs.min()}-{xs.max()}); see {path}")
+
+
+def _edges(labels: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels within one pixel of a pixel of another label."""
+    edge = np.zeros(labels.shape, bool)
+    edge[1:] |= labels[1:] != labels[:-1]
+    edge[:-1] |= labels[1:] != labels[:-1]
+    edge[:, 1:] |= labels[:, 1:] != labels[:, :-1]
+    edge[:, :-1] |= labels[:, 1:] != labels[:, :-1]
+    return cv2.dilate(edge.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
 
 
 def test_rgb_is_within_tolerance_of_the_golden(outputs, tmp_path):
