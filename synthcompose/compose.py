@@ -84,7 +84,6 @@ class SceneLayers:
     ground_band: float = 0.0  # K sigma_d / (f B): over ground, the in-front band is this * z^2
 
 
-
 #: the camera-match noise is drawn in tiles of this many pixels, each from (seed, tile row, tile column)
 NOISE_TILE = 64
 
@@ -104,6 +103,7 @@ def frame_noise(seed: int, rows: slice, cols: slice) -> np.ndarray:
             out[y0 - rows.start:y1 - rows.start, x0 - cols.start:x1 - cols.start] = \
                 tile[y0 - ty * t:y1 - ty * t, x0 - tx * t:x1 - tx * t]
     return out
+
 
 class Composer:
     """Runs the compose shader with the shared :class:`GLContext`."""
