@@ -203,10 +203,10 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # a grass verge or island: flat ground up a kerb beside the road, yellow-green and more
     # saturated than the road (level green is left out: sunlit asphalt and a crossing's
     # paving read as yellower too, and a sign must not stand on the carriageway)
-    verdant = (hsv[..., 0] >= 25) & (hsv[..., 0] <= VERGE_HUE_MAX) & (lab[..., 2] >= b_road + GRASS_YELLOW) \
-        & (sat >= s_road + VERGE_SATURATION)
+    verge_hue = hue_green & (hsv[..., 0] <= VERGE_HUE_MAX)
+    verdant = verge_hue & (lab[..., 2] >= b_road + GRASS_YELLOW) & (sat >= s_road + VERGE_SATURATION)
     # or as saturated as grass, if not yellower (dull grass, a strip under fallen leaves)
-    verdant |= grass & (hsv[..., 0] <= VERGE_HUE_MAX)
+    verdant |= grass & verge_hue
     verge = raised & verdant & ~road & ~side & ~foot & ~enclosed
     verge = cv2.morphologyEx(verge.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     verge = _beside(verge, near_road)
