@@ -76,6 +76,9 @@ LANE_REACH = 40.0
 #: them (a light band spans the lane; paint does not), at least LANE_MODE_SHARE of the frame's
 #: working pixels and 30 pixels (a far patch of sun is few pixels: a count, not a share of the lane)
 LANE_BAND_SHARE, LANE_MODE_SHARE = 0.6, 1e-4
+#: the road's saturation is measured per brightness bin of this many HSV value levels, in bins
+#: that hold at least VALUE_LEAST of the seed's pixels
+VALUE_BIN, VALUE_LEAST = 16, 100
 #: the colour model's least robust spread, LAB
 SPREAD_FLOOR = (10.0, 4.0, 4.0)
 
@@ -144,8 +147,13 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     hue_green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95)
     # the road is kept off grass by saturation alone, pixel by pixel: sunlight is yellower than
     # the skylight of a shadow, so sunlit asphalt beside a shaded seed is b* units yellower,
-    # never greener (and a sunlit paving's saturated grit keeps the road off it)
-    grass_px = hue_green & (hsv[..., 1] >= s_road + GRASS_SATURATION)
+    # never greener (and a sunlit paving's saturated grit keeps the road off it); and against
+    # the seed's saturation at the pixel's own brightness: a dark pixel's hue saturation grows
+    # with the camera's noise and black level (leverkusen_000057: the road 35 in the sun, 51-57
+    # in the trees' shadows, a bus bay in shade 67). The footway's and the verge's tests below
+    # keep the seed's median: read by brightness, dark terrain under trees passed for footway
+    # (dusseldorf_000020's footway precision 0.74 to 0.70)
+    grass_px = hue_green & (hsv[..., 1] >= _saturation_by_value(hsv, seed) + GRASS_SATURATION)
     lane = _lane(level & ~grass_px, seed & ~grass_px, z, sub)
     models = _road_models(lab, seed & ~grass_px, lane)
     road = _road(level & ~grass_px, (seed | lane) & ~grass_px, lab, models)
@@ -265,6 +273,31 @@ def _between(mask: np.ndarray, reach) -> np.ndarray:
     left, right = nearest_in_row(mask)  # -1 and W where there is none: too far from any pixel
     cols = np.arange(mask.shape[1], dtype=np.int32)
     return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)
+
+
+def _saturation_by_value(hsv: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """(h, w) float32: the road's hue saturation at each pixel's brightness (HSV value, a
+    5-pixel median, in bins of VALUE_BIN): the median over the ``seed``'s pixels of that
+    brightness where it is higher than the seed's median over all (a darker road reads more
+    saturated; the brightest bins of a seed hold its white paint, which reads less, so they keep
+    the median over all); a brightness with fewer than VALUE_LEAST seed pixels takes the nearest
+    bin's that has them (40 with no seed at all)."""
+    value = cv2.medianBlur(hsv[..., 2], 5)
+    bins = np.arange(0, 256, VALUE_BIN)
+    of = value // VALUE_BIN
+    s = hsv[..., 1][seed]
+    where = of[seed]
+    table = np.full(len(bins), np.nan, np.float32)
+    for k in np.unique(where):
+        inside = where == k
+        if inside.sum() >= VALUE_LEAST:
+            table[k] = np.median(s[inside])
+    known = np.flatnonzero(np.isfinite(table))
+    if len(known) == 0:
+        return np.full(value.shape, 40.0, np.float32)
+    table = np.maximum(table, np.float32(np.median(s)))
+    nearest = known[np.abs(np.arange(len(bins))[:, None] - known[None, :]).argmin(axis=1)]
+    return table[nearest][of]
 
 
 def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:

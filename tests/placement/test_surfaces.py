@@ -235,3 +235,33 @@ def test_grit_on_a_footway_leaves_it_footway():
     strewn = find_surfaces(arrays["disparity"], cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB), scene.camera).labels
     assert clean[near].mean() > SIDEWALK_FOUND_RECALL_MIN
     assert (strewn == SIDEWALK)[near].mean() > 0.9 * clean[near].mean()
+
+
+def test_shaded_asphalt_is_road_however_saturated_its_dark_pixels_read():
+    """A dark pixel's hue saturation grows with the camera's noise and black level: on
+    leverkusen_000057 the road in front of the car reads 35 in the sun and 51-57 in the trees'
+    shadows, and a bus bay in shade 67, over the grass test against the seed's median (38 + 18);
+    the bay, the kerb beyond it and its footway were lost. The grass test for the road compares
+    a pixel with the seed's saturation at its own brightness: trees' shadows across the road in
+    front of the car, and the right lanes wholly in shade, are road."""
+    scene = random_scene(np.random.default_rng([30, 3]), 1024, 512)
+    arrays = render_scene(scene, stereo="realistic", photo="realistic")
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    rows = np.arange(truth.shape[0])[:, None]
+    u = np.arange(truth.shape[1])[None, :]
+    road = truth == ROAD
+    stripes = road & (z > 6) & (z < 15) & ((rows // 6) % 3 == 0)  # trees' shadows across the road
+    bay = road & (u > scene.camera.u0 + 0.16 * truth.shape[1]) & (z > 5) & (z < 30)  # the right lanes in shade
+    shade = stripes | bay
+    hsv = cv2.cvtColor(arrays["rgb"], cv2.COLOR_RGB2HSV).astype(np.int16)
+    hsv[..., 2][shade] //= 2
+    hsv[..., 1][shade] += 22
+    rgb = cv2.cvtColor(np.clip(hsv, 0, 255).astype(np.uint8), cv2.COLOR_HSV2RGB)
+    sat = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 1]
+    seed = road & (z > 6) & (z < 15) & (np.abs(u - scene.camera.u0) < 0.15 * truth.shape[1])
+    assert bay.sum() > 10000
+    assert np.median(sat[bay & ~stripes]) - np.median(sat[seed]) > GRASS_SATURATION  # over the old test
+    labels = find_surfaces(arrays["disparity"], rgb, scene.camera).labels
+    assert (labels[bay] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
+    assert (labels[seed] == ROAD).mean() > ROAD_BEYOND_SHADOW_MIN
