@@ -16,7 +16,8 @@ disparity and the photo.
    continuous in height with the ground in front of the car, is road in whatever light, so
    where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
    light's road colour is modelled from it too.
-   **Sidewalk**: flat pixels 5-35 cm above the road, not green (grass), in regions beside the
+   **Sidewalk**: flat pixels 5-35 cm above the road (even along the row too: not ground that
+   climbs into a parked car), not green (grass), in regions beside the
    road; and the flat ground beyond a kerb found across the street (kerbs.py: the step up
    from the gutter, which a road's camber hides from the height over the profile) at the
    footway's height, unless as saturated as grass (no road beyond that kerb either); and a
@@ -136,6 +137,15 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     climb[k:-k] = np.abs(smooth[2 * k:] - smooth[:-2 * k]) / (2 * k)
     flat = climb < 0.25 * z / sub.fy + 0.01
     raised = (smooth >= np.maximum(KERB_MIN, band)) & (smooth <= KERB_MAX) & flat
+    # even along the row too: a footway is flat both ways, but the disparity of a car bleeding
+    # onto the ground at its foot, or a kerb's face smeared by the matcher, climbs across it
+    # (by more than the noise band over 2k pixels)
+    left = np.full((h, w), np.nan, np.float32)
+    right = np.full((h, w), np.nan, np.float32)
+    left[:, k:] = right[:, :-k] = np.abs(smooth[:, k:] - smooth[:, :-k])
+    # over 2k pixels; where one side has no depth (a hole, the image's edge), twice the other's
+    both = np.where(np.isnan(left), 2 * right, np.where(np.isnan(right), 2 * left, left + right))
+    even = ~(both >= band)
     small = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA)
     lab = cv2.GaussianBlur(cv2.cvtColor(small, cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 2.0)
     hsv = cv2.cvtColor(small, cv2.COLOR_RGB2HSV)
@@ -184,9 +194,9 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     beyond |= past
     ahead &= ~green & ~foot
     road &= ~beyond
-    side = ((raised & ~green) | kerbside) & ~road & ~foot
+    side = ((raised & ~green & even) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
-        side |= level & flat & ~green & ~road & ~foot & ~_road_coloured(lab, models)
+        side |= level & flat & even & ~green & ~road & ~foot & ~_road_coloured(lab, models)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
