@@ -24,7 +24,8 @@ centre lines and markings placement found):
   at its distance along the street) is "across a lane marking"; a shorter line, or one under
   the ego vehicle's path, is counted apart;
 * **people** whose footprint centre lies on a carriageway (between its kerbs) and not on a
-  recorded crossing; **overlaps**: two objects' footprints intersecting, people closer than 0.5 m;
+  recorded crossing, nor past the kerb where the recorded street ends (a T-junction's far
+  footway); **overlaps**: two objects' footprints intersecting, people closer than 0.5 m;
 * **disagreement**: objects that check-placement --strict (``synthcompose.tools.check``) fails.
 
 ``--run`` first runs ``eval_real.py``'s batch on ROOT (its figures printed too) and keeps the
@@ -46,6 +47,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from synthcompose.placement.boxes import footprint_corners, footprints_overlap  # noqa: E402
+from synthcompose.placement.ends import past_recorded_end  # noqa: E402
 from synthcompose.placement.street import EGO_HALF_LANE  # noqa: E402
 from synthcompose.placement.street_lines import to_road  # noqa: E402
 from synthcompose.placement.verdict import LINE_SEEN  # noqa: E402
@@ -171,7 +173,11 @@ def analyse(out: Path) -> dict:
                                 counts["over a short line or one under the ego vehicle's path"] += 1
             elif obj.class_name == "person":
                 counts["people"] += 1
-                on_road = any(cw["right_m"] <= s <= cw["left_m"] for cw in street["carriageways"])
+                # past the kerb across a street that ends (a T-junction seen head-on) lies the cross
+                # street's far footway, not the ego carriageway
+                beyond = past_recorded_end(street, m[0, 3], m[1, 3])
+                on_road = any(cw["right_m"] <= s <= cw["left_m"] and not (beyond and cw.get("side", 0) == 0)
+                              for cw in street["carriageways"])
                 crossing = any(c[0] <= a <= c[1] for c in street.get("crossings", []))
                 if on_road and not crossing:
                     counts["people on the carriageway outside a crossing"] += 1

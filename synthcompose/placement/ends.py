@@ -16,6 +16,8 @@ van, people and a sign at a crossing on leverkusen_000037).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from synthcompose.geometry.depth import Frame
@@ -75,9 +77,37 @@ def past_end(frame: Frame, line, xy: np.ndarray) -> np.ndarray:
     return -side * line.offsets(np.atleast_2d(np.asarray(xy, float))) > END_PAST
 
 
-def _end_kerb(frame: Frame, street: Street):
-    import math
+def end_record(frame: Frame, street: Street) -> dict | None:
+    """The record's word on where the street ends: None where it goes on; else the kerb across
+    it (a point of the line and its direction in V; None where no such kerb is seen) and how far
+    past it a point stands on the far footway (a point on the camera's side of it, or on the kerb's
+    stones, is still on the street)."""
+    if not street_ends(frame, street):
+        return None
+    line = end_kerb(frame, street)
+    kerb = None if line is None else {"point_m": [round(v, 3) for v in line.centre],
+                                      "angle_deg": round(math.degrees(line.angle), 2)}
+    return {"kerb": kerb, "past_m": END_PAST}
 
+
+def past_recorded_end(street: dict, x: float, y: float) -> bool:
+    """Whether a ground-plan point (V) lies past the kerb across the ego carriageway where a
+    record's street (its ``end``, :func:`end_record`) ends, on the far side from the vehicle's
+    origin, by more than the recorded ``past_m``."""
+    end = street.get("end") or {}
+    kerb = end.get("kerb")
+    if not kerb:
+        return False
+    angle = math.radians(kerb["angle_deg"])
+    cx, cy = kerb["point_m"]
+
+    def offset(px: float, py: float) -> float:
+        return (px - cx) * -math.sin(angle) + (py - cy) * math.cos(angle)
+
+    return -math.copysign(1.0, offset(0.0, 0.0)) * offset(x, y) > end["past_m"]
+
+
+def _end_kerb(frame: Frame, street: Street):
     from synthcompose.labels import label_id
 
     from .road import RoadLine, line_through, surface_edges

@@ -22,6 +22,7 @@ from synthcompose.manifest import ObjectSpec
 from synthcompose.models import Model, load_model, posable, pose_rng, posed_model
 from synthcompose.models.poses import KINDS, WALKING_SHARE
 from synthcompose.placement import Placement, PlacementResult, check_pose, frame_noise, place_object
+from synthcompose.placement.ends import end_record
 from synthcompose.placement.lanes import lanes
 from synthcompose.placement.noise import StereoNoise
 from synthcompose.placement.rules import orientation_for, rules_dict
@@ -314,7 +315,7 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
         placement_file=None if saved is None else {"path": str(saved.path) if saved.path else None,
                                                    "sha256": saved.sha256},
         street=None if street is None else street.to_dict() | {
-            "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)]},
+            "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)], "end": end_record(frame, street)},
         placement_rules=rules_dict(o.rules))
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 

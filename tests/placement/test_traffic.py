@@ -413,6 +413,37 @@ def test_a_street_that_ends_at_a_t_junction_has_its_far_footway_found_and_used(s
             assert check_pose(frame, cls, size, p.matrix, RULES) is None
 
 
+def test_the_record_says_where_the_street_ends():
+    """The record's street says where a street ends (``end``: the kerb across it), so that a
+    person on the T-junction's far footway is measured off the carriageway from the record alone
+    (eval_traffic.py: a person there on leverkusen_000045 was counted on the ego carriageway,
+    its lateral offset inside the carriageway's kerbs); a point short of that kerb is still on
+    the street, and a street that goes on records no end."""
+    from synthcompose.placement.ends import end_record, past_recorded_end
+    from synthcompose.placement.surfaces import find_surfaces
+
+    scene, arrays, _ = _t_junction(0)
+    found = find_surfaces(arrays["disparity"], arrays["rgb"], scene.camera).labels
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), found, scene.camera, labelled=False,
+                       photo=arrays["rgb"])
+    street = find_street(frame)
+    record = street.to_dict() | {"end": end_record(frame, street)}
+    assert record["end"] is not None and record["end"]["kerb"] is not None
+    end = scene.street_end
+    for a, beyond in ((end + scene.sidewalk_width / 2, True), (end - 3.0, False), (end - 8.0, False)):
+        x, y = scene.to_vehicle(a, 0.0)
+        assert past_recorded_end(record, x, y) == beyond, (a - end, beyond)
+    placed = place_object(frame, "person", SIZES["person"], np.random.default_rng(0), RULES).placement
+    assert placed is not None and past_recorded_end(record, *np.asarray(placed.matrix)[:2, 3])
+
+    plain = random_scene(np.random.default_rng([21, 0]), W, H)
+    arrays = render_scene(plain, stereo="realistic", photo="realistic")
+    found = find_surfaces(arrays["disparity"], arrays["rgb"], plain.camera).labels
+    frame = make_frame(disparity_to_depth(arrays["disparity"], plain.camera), found, plain.camera, labelled=False,
+                       photo=arrays["rgb"])
+    assert end_record(frame, find_street(frame)) is None
+
+
 def test_no_kerb_across_the_view_where_the_street_goes_on(monkeypatch):
     """The kerb across the view is taken only where the street ends: not on streets going on past
     their cross street, and not on the T-junction with its house taken away (a raised table or
