@@ -22,6 +22,7 @@ import numpy as np
 
 from synthcompose.geometry.depth import Frame
 
+from .road import RoadLine
 from .street import Street, heights_over_road
 
 #: a wall this near ahead (metres along the street) ...
@@ -93,24 +94,19 @@ def end_record(frame: Frame, street: Street) -> dict | None:
 def past_recorded_end(street: dict, x: float, y: float) -> bool:
     """Whether a ground-plan point (V) lies past the kerb across the ego carriageway where a
     record's street (its ``end``, :func:`end_record`) ends, on the far side from the vehicle's
-    origin, by more than the recorded ``past_m``."""
+    origin, by more than the recorded ``past_m`` (as :func:`past_end` measures it on a frame)."""
     end = street.get("end") or {}
     kerb = end.get("kerb")
     if not kerb:
         return False
-    angle = math.radians(kerb["angle_deg"])
-    cx, cy = kerb["point_m"]
-
-    def offset(px: float, py: float) -> float:
-        return (px - cx) * -math.sin(angle) + (py - cy) * math.cos(angle)
-
-    return -math.copysign(1.0, offset(0.0, 0.0)) * offset(x, y) > end["past_m"]
+    line = RoadLine(math.radians(kerb["angle_deg"]), 0.0, 0, False, tuple(kerb["point_m"]))
+    return -math.copysign(1.0, line.offset_of((0.0, 0.0))) * line.offset_of((x, y)) > end["past_m"]
 
 
 def _end_kerb(frame: Frame, street: Street):
     from synthcompose.labels import label_id
 
-    from .road import RoadLine, line_through, surface_edges
+    from .road import line_through, surface_edges
 
     if not street_ends(frame, street):
         return None
