@@ -163,7 +163,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # in the trees' shadows, a bus bay in shade 67). The footway's and the verge's tests below
     # keep the seed's median: read by brightness, dark terrain under trees passed for footway
     # (dusseldorf_000020's footway precision 0.74 to 0.70)
-    grass_px = hue_green & (hsv[..., 1] >= _saturation_by_value(hsv, seed) + GRASS_SATURATION)
+    grass_px = hue_green & (hsv[..., 1] >= _saturation_by_value(hsv, seed, s_road) + GRASS_SATURATION)
     lane = _lane(level & ~grass_px, seed & ~grass_px, z, sub)
     models = _road_models(lab, seed & ~grass_px, lane)
     road = _road(level & ~grass_px, (seed | lane) & ~grass_px, lab, models)
@@ -285,19 +285,18 @@ def _between(mask: np.ndarray, reach) -> np.ndarray:
     return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)
 
 
-def _saturation_by_value(hsv: np.ndarray, seed: np.ndarray) -> np.ndarray:
+def _saturation_by_value(hsv: np.ndarray, seed: np.ndarray, floor: float) -> np.ndarray:
     """(h, w) float32: the road's hue saturation at each pixel's brightness (HSV value, a
     5-pixel median, in bins of VALUE_BIN): the median over the ``seed``'s pixels of that
-    brightness where it is higher than the seed's median over all (a darker road reads more
-    saturated; the brightest bins of a seed hold its white paint, which reads less, so they keep
-    the median over all); a brightness with fewer than VALUE_LEAST seed pixels takes the nearest
-    bin's that has them (40 with no seed at all)."""
+    brightness where it is higher than ``floor``, the seed's median over all (a darker road
+    reads more saturated; the brightest bins of a seed hold its white paint, which reads less,
+    so they keep the median over all); a brightness with fewer than VALUE_LEAST seed pixels
+    takes the nearest bin's that has them (40 where no bin has them)."""
     value = cv2.medianBlur(hsv[..., 2], 5)
-    bins = np.arange(0, 256, VALUE_BIN)
     of = value // VALUE_BIN
     s = hsv[..., 1][seed]
     where = of[seed]
-    table = np.full(len(bins), np.nan, np.float32)
+    table = np.full(256 // VALUE_BIN, np.nan, np.float32)
     for k in np.unique(where):
         inside = where == k
         if inside.sum() >= VALUE_LEAST:
@@ -305,8 +304,8 @@ def _saturation_by_value(hsv: np.ndarray, seed: np.ndarray) -> np.ndarray:
     known = np.flatnonzero(np.isfinite(table))
     if len(known) == 0:
         return np.full(value.shape, 40.0, np.float32)
-    table = np.maximum(table, np.float32(np.median(s)))
-    nearest = known[np.abs(np.arange(len(bins))[:, None] - known[None, :]).argmin(axis=1)]
+    table = np.maximum(table, np.float32(floor))
+    nearest = known[np.abs(np.arange(len(table))[:, None] - known[None, :]).argmin(axis=1)]
     return table[nearest][of]
 
 
