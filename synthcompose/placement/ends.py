@@ -21,8 +21,9 @@ import math
 import numpy as np
 
 from synthcompose.geometry.depth import Frame
+from synthcompose.labels import label_id
 
-from .road import RoadLine
+from .road import RoadLine, line_through, surface_edges
 from .street import Street, heights_over_road
 
 #: a wall this near ahead (metres along the street) ...
@@ -104,10 +105,6 @@ def past_recorded_end(street: dict, x: float, y: float) -> bool:
 
 
 def _end_kerb(frame: Frame, street: Street):
-    from synthcompose.labels import label_id
-
-    from .road import line_through, surface_edges
-
     if not street_ends(frame, street):
         return None
     edges = surface_edges(frame, np.array([label_id("road")]))
