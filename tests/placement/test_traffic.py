@@ -468,3 +468,37 @@ def test_no_kerb_across_the_view_where_the_street_goes_on(monkeypatch):
         arrays = render_scene(open_end, stereo="realistic", photo="realistic")
         surfaces.find_surfaces(arrays["disparity"], arrays["rgb"], open_end.camera)
     assert seen == [None] * 4
+
+
+def _box_in_front(frame, sign, extents, nearer: float, class_name: str):
+    """A box of ``extents`` on the line from the camera to ``sign``'s foot, its centre
+    ``nearer`` metres nearer the camera, lengthwise along that line."""
+    foot = sign.matrix[:3, 3]
+    away = foot[:2] - frame.camera.position[:2]
+    away /= np.linalg.norm(away)
+    m = np.eye(4)
+    m[:2, 0], m[:2, 1] = away, (-away[1], away[0])
+    m[:3, 3] = (*(foot[:2] - nearer * away), foot[2])
+    return replace(sign, class_name=class_name, extents=tuple(extents), vehicle_from_object=tuple(map(tuple, m)))
+
+
+def test_a_sign_may_stand_behind_a_car_that_hides_its_pole_never_its_plate():
+    """A driver reads a sign's plate over a car parked in front of its pole, as at real kerbs:
+    the rule that no inserted object hides a sign is about its plate (the top SIGN_PLATE of
+    it). A car 4 m nearer on the line of sight hides the pole and leaves the sign placeable,
+    placed before it or after it; a lorry there hides the plate (and most of the sign), and the
+    sign is rejected either way round. Before, the car rejected the sign too (half its box
+    hidden): substitutes drawn after the frame's cars found no kerb left (leverkusen_000031,
+    000034, 000055)."""
+    _, frame = _frame("two-way", 0)
+    sign = _placed_in_turn(frame, "traffic sign", 1, 8)[0]
+    assert sign.distance > 10.0
+    signs = PoseTests.of(frame, sign.extents, RULES, ("sidewalk",), "traffic sign")
+    assert signs.visibility(sign.matrix, [])[0] is None
+    car = _box_in_front(frame, sign, SIZES["car"], 4.0, "car")
+    lorry = _box_in_front(frame, sign, (6.0, 2.4, 3.4), 4.0, "truck")
+    assert signs.visibility(sign.matrix, [car])[0] is None
+    assert signs.visibility(sign.matrix, [lorry])[0] is not None
+    for other in (car, lorry):
+        tests = PoseTests.of(frame, other.extents, RULES, ("road",), other.class_name)
+        assert (tests.visibility(other.matrix, [sign])[0] is None) == (other is car)
