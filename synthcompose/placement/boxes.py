@@ -102,10 +102,14 @@ def rays_hit_box(origin: np.ndarray, targets: np.ndarray, m: np.ndarray, extents
     return (tmax >= np.maximum(tmin, 0.0)) & (tmin <= 1.0)
 
 
-def box_samples(m: np.ndarray, extents) -> np.ndarray:
+def box_samples(m: np.ndarray, extents, above: float = 0.0) -> np.ndarray:
+    """(N, 3) V points on a grid through the box of pose ``m``: 7 along, 5 across, 6 up (from
+    5 % of its height to its top); with ``above``, only the levels at least that share of the
+    height up (a sign's plate)."""
     l, w, h = extents
+    up = np.linspace(0.05, 1.0, 6)
     g = np.stack(np.meshgrid(np.linspace(-0.5, 0.5, 7) * l, np.linspace(-0.5, 0.5, 5) * w,
-                             np.linspace(0.05, 1.0, 6) * h), -1).reshape(-1, 3)
+                             up[up >= above] * h), -1).reshape(-1, 3)
     return g @ m[:3, :3].T + m[:3, 3]
 
 

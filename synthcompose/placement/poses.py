@@ -372,6 +372,4 @@ def check_pose(frame: Frame, class_name: str, extents, matrix: np.ndarray, rules
 def plate_samples(m: np.ndarray, extents) -> np.ndarray:
     """(N, 3) V points over the plate of a sign posed by ``m``: the box's samples in the top
     SIGN_PLATE of its height."""
-    samples = box_samples(m, extents)
-    up = (samples - m[:3, 3]) @ m[:3, 2]
-    return samples[up >= (1.0 - SIGN_PLATE) * float(extents[2]) - 1e-6]
+    return box_samples(m, extents, above=1.0 - SIGN_PLATE)
