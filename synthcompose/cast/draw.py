@@ -57,9 +57,10 @@ def posed_person(entry: CastEntry, size: tuple[tuple[str, float], ...], rng: np.
 
 
 def _sign(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
-          rng: np.random.Generator) -> tuple[Model, dict]:
+          rng: np.random.Generator, lowest: bool = False) -> tuple[Model, dict]:
     """The sign's pole with its plate, a supplementary sign under it or not, its lower edge
-    at one of its heights."""
+    at one of its heights; ``lowest``: its lowest mounting (the least lower edge, no plate
+    under it), drawn with the same draws."""
     spec = entry.sign
     plates = [Plate(entry.kind, spec.face, spec.width_m, spec.height_m)]
     u = float(rng.random())
@@ -69,6 +70,8 @@ def _sign(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
             break
         u -= p
     lower = float(spec.lower_edge_m[int(rng.integers(len(spec.lower_edge_m)))])
+    if lowest:
+        plates, lower = plates[:1], float(min(spec.lower_edge_m))
     described = {"code": entry.kind, "below": [p.code for p in plates[1:]], "lower_edge_m": lower}
     if spec.faces != "traffic":
         described["faces"] = spec.faces
@@ -76,12 +79,13 @@ def _sign(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
 
 
 def cast_model(entry: CastEntry, size: tuple[tuple[str, float], ...] | None,
-               rng: np.random.Generator, pose: str | None = None) -> tuple[Model, CastDraw]:
+               rng: np.random.Generator, pose: str | None = None,
+               lowest: bool = False) -> tuple[Model, CastDraw]:
     """The model of ``entry`` for one object (at ``size`` when the manifest gives one, else at
     the entry's real size) and what the record says of it. ``pose``: a person's pose kind
-    (``standing`` / ``walking``; None: any)."""
+    (``standing`` / ``walking``; None: any); ``lowest``: a sign at its lowest mounting."""
     if entry.model == SIGN_MODEL:
-        model, sign = _sign(entry, size, rng)
+        model, sign = _sign(entry, size, rng, lowest)
         return model, CastDraw(entry, {"model": entry.id, "sign": sign})
     real = size or entry.size
     if entry.group == "people":
@@ -94,3 +98,13 @@ def preload(entries: Sequence[CastEntry]) -> None:
     """Load each entry's model once (a bad file stops a batch at its start, naming the file)."""
     for entry in entries:
         cast_model(entry, None, np.random.default_rng(0))
+
+
+def mounted_higher(drawn: CastDraw | None) -> bool:
+    """Whether a drawn sign hangs higher than its entry's lowest mounting (a plate under it, or
+    a lower edge above the least): a view with too little footway far enough off for it may
+    still show the sign mounted lowest."""
+    sign = None if drawn is None else drawn.appearance.get("sign")
+    if not sign:
+        return False
+    return bool(sign["below"]) or sign["lower_edge_m"] > min(drawn.entry.sign.lower_edge_m)

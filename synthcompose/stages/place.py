@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from synthcompose import __version__
-from synthcompose.cast import CastDraw, cast_model, cast_rng, draw_entry
+from synthcompose.cast import CastDraw, cast_model, cast_rng, draw_entry, mounted_higher
 from synthcompose.errors import InputError, SynthComposeError
 from synthcompose.io.dataset import ImageSetId, input_fingerprint, polygon_instance_counts
 from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
@@ -122,15 +122,16 @@ def saved_spec(objects: tuple[ObjectSpec, ...], saved: SavedPlacement, k: int) -
                                  f"({', '.join(repr(s.name) for s in objects)})")
 
 
-def object_model(seed: int, spec: ObjectSpec, key: str, index: int,
-                 pose: str | None = None) -> tuple[Model, CastDraw | None, dict | None]:
+def object_model(seed: int, spec: ObjectSpec, key: str, index: int, pose: str | None = None,
+                 lowest: bool = False) -> tuple[Model, CastDraw | None, dict | None]:
     """The model of the ``index``-th object placed in image set ``key``: for a cast pool, an entry
     drawn (and posed) with the cast's own generator; a person's file with MakeHuman's skeleton
     posed for it (its own seeded draw, models.skinning) with its pose; else the spec's file or
-    builtin as it is. ``pose``: a person's pose kind (``walking`` / ``standing``; None: any)."""
+    builtin as it is. ``pose``: a person's pose kind (``walking`` / ``standing``; None: any);
+    ``lowest``: a cast sign at its lowest mounting (the same draw)."""
     if spec.cast:
         rng = cast_rng(seed, key, index)
-        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng, pose)
+        model, drawn = cast_model(draw_entry(spec.cast, rng), spec.size or None, rng, pose, lowest)
         return model, drawn, None
     if spec.class_name in ("person", "rider") and posable(spec.model):
         model, posed = posed_model(spec.model, spec.size, spec.up, spec.forward, pose_rng(seed, key, index), pose)
@@ -183,6 +184,8 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
     result = place_object(frame, spec.class_name, model.extents, rng, o.rules, spec.allowed_surfaces,
                           spec.orientation, others, trace=trace, pose_hint=_posed_as(drawn, pose)) \
         if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
+    if result.placement is None and saved_object is None and mounted_higher(drawn):
+        model, drawn, result = _mounted_lowest(o, prep, spec, len(objects), others, drawn, result, trace)
     if result.placement is None:
         return NotPlaced(spec.name, spec.class_name, "no valid placement", result.attempts,
                          tuple(result.rejections.items()))
@@ -201,6 +204,24 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
         raise InputError(ident.path(o.dataset, "instanceIds"), str(exc)) from None
     taken.add(inst)
     return PlacedObject(spec, model, result, inst, check, drawn, None if pose is None else MappingProxyType(pose))
+
+
+def _mounted_lowest(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, index: int, others: list, drawn: CastDraw,
+                    failed: PlacementResult, trace: list | None) -> tuple[Model, CastDraw, PlacementResult]:
+    """A sign drawn higher than its lowest mounting that found no place, placed again mounted
+    lowest (its least lower edge, no plate under it): a sign must stand farther off the taller
+    it is to be seen whole (the top of the view looks about 10 degrees up), and a view with
+    little footway far enough off holds it lower. Its model, draw (``lowered_from``: the
+    mounting first drawn) and result, or, placed nowhere either, the attempts of both."""
+    model, low, _ = object_model(o.seed, spec, prep.ident.key, index, lowest=True)
+    result = place_object(prep.frame, spec.class_name, model.extents, prep.rng, o.rules, spec.allowed_surfaces,
+                          spec.orientation, others, trace=trace, pose_hint=_posed_as(low, None))
+    if result.placement is None:
+        rejections = Counter(dict(failed.rejections)) + Counter(dict(result.rejections))
+        return model, low, PlacementResult(None, failed.attempts + result.attempts, dict(rejections))
+    first = drawn.appearance["sign"]
+    sign = dict(low.appearance["sign"], lowered_from={"below": first["below"], "lower_edge_m": first["lower_edge_m"]})
+    return model, replace(low, appearance={**low.appearance, "sign": sign}), result
 
 
 def where_it_stands(class_name: str) -> str:

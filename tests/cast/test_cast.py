@@ -14,7 +14,8 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 
-from synthcompose.cast import CAST_PREFIX, STREET, cast_model, cast_rng, cast_root, draw_entry, load_catalogue, posed_person
+from synthcompose.cast import (CAST_PREFIX, STREET, cast_model, cast_rng, cast_root, draw_entry, load_catalogue,
+                               mounted_higher, posed_person)
 from synthcompose.cli import main
 from synthcompose.errors import ManifestError, ModelError
 from synthcompose.io.dataset import read_image_set
@@ -195,6 +196,89 @@ def test_a_sign_stands_at_its_real_size_and_height_with_its_pole_labelled():
     centre = np.array([top.positions[:, 1].mean(), (top.positions[:, 2].max() + top.positions[:, 2].min()) / 2])
     r = np.linalg.norm(top.positions[:, 1:] - centre, axis=1)
     assert r.max() == pytest.approx(0.3, abs=0.006) and r.min() > 0.29
+
+
+def test_a_sign_mounted_lowest_is_the_same_draw_with_its_least_lower_edge_and_nothing_under_it():
+    signs = load_catalogue().pool("traffic sign")
+    seen_below = seen_high = 0
+    for k in range(60):
+        entry = draw_entry(signs, cast_rng(5, "x", k))
+        model, drawn = cast_model(entry, None, cast_rng(5, "x", k))
+        low_model, low = cast_model(entry, None, cast_rng(5, "x", k), lowest=True)
+        sign, lowest = drawn.appearance["sign"], low.appearance["sign"]
+        assert lowest["code"] == sign["code"] and lowest["below"] == []
+        assert lowest["lower_edge_m"] == min(entry.sign.lower_edge_m) <= sign["lower_edge_m"]
+        assert not mounted_higher(low)
+        higher = bool(sign["below"]) or sign["lower_edge_m"] > lowest["lower_edge_m"]
+        assert mounted_higher(drawn) == higher
+        if higher:  # lower by what was under it and the difference of the edges
+            drop = sign["lower_edge_m"] - lowest["lower_edge_m"]
+            assert model.extents[2] - low_model.extents[2] >= drop - 1e-6
+            assert low_model.extents[2] < model.extents[2]
+        seen_below += bool(sign["below"])
+        seen_high += higher
+    assert seen_below and seen_high < 60  # both kinds of draw were tried
+    assert not mounted_higher(None)
+
+
+def test_a_sign_too_tall_for_the_view_is_placed_again_mounted_lowest(tmp_path, monkeypatch):
+    """The place stage's retry: a sign drawn higher than its lowest mounting that finds no place
+    is placed again mounted lowest, and the record says what was drawn first; a sign drawn
+    lowest is not tried twice. (The view here admits no sign taller than the lowest mounting.)"""
+    import importlib
+
+    from synthcompose.stages.options import StageOptions
+    from synthcompose.stages.prepare import prepare
+    from synthcompose.stages.timing import Timings
+
+    stage = importlib.import_module("synthcompose.stages.place")  # the module, not the function
+    ids = make_sample(tmp_path / "cs", count=1, width=W, height=H, seed=3)
+    real, calls = stage.place_object, []
+
+    def lowest_only(frame, class_name, extents, *args, **kw):
+        calls.append(extents[2])
+        result = real(frame, class_name, extents, *args, **kw)
+        if class_name == "traffic sign" and extents[2] > limit + 1e-6:  # too tall for this view
+            return stage.PlacementResult(None, 200, {"not fully inside the image": 200})
+        return result
+
+    monkeypatch.setattr(stage, "place_object", lowest_only)
+    for seed in range(40):
+        m = parse_manifest(manifest_data(tmp_path, seed=seed, objects_per_image=1,
+                                         objects=[{"model": "cast:traffic sign"}]), tmp_path / "m.json")
+        o = StageOptions.of(m).place
+        low, drawn, _ = stage.object_model(seed, o.objects[0], ids[0].key, 0)
+        limit = stage.object_model(seed, o.objects[0], ids[0].key, 0, lowest=True)[0].extents[2]
+        if not mounted_higher(drawn):
+            continue
+        calls.clear()
+        prep = prepare(StageOptions.of(m).read, ids[0], Timings())
+        done = stage._place_one(o, prep, o.objects[0], [], set())
+        if isinstance(done, stage.NotPlaced):
+            continue  # no footway for any sign in this draw's view: tried with both mountings
+        assert calls == [pytest.approx(low.extents[2]), pytest.approx(limit)]
+        assert done.model.extents[2] == pytest.approx(limit)
+        sign = done.cast.appearance["sign"]
+        first = drawn.appearance["sign"]
+        assert sign["lowered_from"] == {"below": first["below"], "lower_edge_m": first["lower_edge_m"]}
+        assert sign["below"] == [] and sign["code"] == first["code"]
+        break
+    else:
+        pytest.fail("no seed drew a sign mounted higher that the lowest mounting placed")
+    # a sign drawn at its lowest is tried once; so is an object that is not a sign
+    monkeypatch.setattr(stage, "place_object", lambda *a, **k: calls.append(a[2][2]) or
+                        stage.PlacementResult(None, 200, {"footprint hidden": 200}))
+    for seed in range(40):
+        m = parse_manifest(manifest_data(tmp_path, seed=seed, objects_per_image=1,
+                                         objects=[{"model": "cast:traffic sign"}]), tmp_path / "m.json")
+        o = StageOptions.of(m).place
+        if not mounted_higher(stage.object_model(seed, o.objects[0], ids[0].key, 0)[1]):
+            calls.clear()
+            done = stage._place_one(o, prepare(StageOptions.of(m).read, ids[0], Timings()), o.objects[0], [], set())
+            assert isinstance(done, stage.NotPlaced) and len(calls) == 1 and done.attempts == 200
+            break
+    else:
+        pytest.fail("no seed drew a sign at its lowest mounting")
 
 
 @pytest.fixture(scope="module")
