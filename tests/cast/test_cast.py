@@ -14,8 +14,17 @@ import pytest
 from cityscapesscripts.helpers.annotation import Annotation
 from cityscapesscripts.preparation.json2labelImg import createLabelImage
 
-from synthcompose.cast import (CAST_PREFIX, STREET, cast_model, cast_rng, cast_root, draw_entry, load_catalogue,
-                               mounted_higher, posed_person)
+from synthcompose.cast import (
+    CAST_PREFIX,
+    STREET,
+    cast_model,
+    cast_rng,
+    cast_root,
+    draw_entry,
+    load_catalogue,
+    mounted_higher,
+    posed_person,
+)
 from synthcompose.cli import main
 from synthcompose.errors import ManifestError, ModelError
 from synthcompose.io.dataset import read_image_set
