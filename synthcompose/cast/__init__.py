@@ -7,5 +7,4 @@ from .street import CASTS, STREET
 
 __all__ = ["CASTS", "CAST_PREFIX", "SIGN_MODEL", "STREET", "CastDraw", "CastEntry", "Catalogue", "SignSpec",
            "cast_model", "cast_rng", "cast_root", "draw_entry", "entry_digest", "load_catalogue", "mounted_higher",
-           "posed_person",
-           "preload"]
+           "posed_person", "preload"]

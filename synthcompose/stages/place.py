@@ -174,15 +174,14 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
                saved_from: SavedPlacement | None = None) -> "PlacedObject | NotPlaced":
     """One object placed among ``objects`` (placed before it): its PlacedObject, or the
     failure."""
-    ident, image_set, frame, rng = prep.ident, prep.image_set, prep.frame, prep.rng
+    ident, image_set, frame = prep.ident, prep.image_set, prep.frame
     kind = pose_kind(o.seed, spec, ident.key, len(objects)) if saved_object is None else None
     model, drawn, pose = object_model(o.seed, spec, ident.key, len(objects), kind)
     if saved_object is not None and (problem := pose_problem(frame, model.extents, saved_object.matrix)):
         raise InputError(saved_from.path, f"saved placement object {saved_from.objects.index(saved_object)} "
                                           f"({spec.name!r}) {problem}")
     others = [o.placement for o in objects]
-    result = place_object(frame, spec.class_name, model.extents, rng, o.rules, spec.allowed_surfaces,
-                          spec.orientation, others, trace=trace, pose_hint=_posed_as(drawn, pose)) \
+    result = _search(o, prep, spec, model.extents, others, trace, _posed_as(drawn, pose)) \
         if saved_object is None else saved_result(frame, spec.class_name, model.extents, saved_object)
     if result.placement is None and saved_object is None and mounted_higher(drawn):
         model, drawn, result = _mounted_lowest(o, prep, spec, len(objects), others, drawn, result, trace)
@@ -206,6 +205,14 @@ def _place_one(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, objects: list,
     return PlacedObject(spec, model, result, inst, check, drawn, None if pose is None else MappingProxyType(pose))
 
 
+def _search(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, extents, others: list, trace: list | None,
+            hint: str | None) -> PlacementResult:
+    """The placement's search for one object of ``extents`` among ``others`` (the frame's
+    generator goes on from the objects placed before it)."""
+    return place_object(prep.frame, spec.class_name, extents, prep.rng, o.rules, spec.allowed_surfaces,
+                        spec.orientation, others, trace=trace, pose_hint=hint)
+
+
 def _mounted_lowest(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, index: int, others: list, drawn: CastDraw,
                     failed: PlacementResult, trace: list | None) -> tuple[Model, CastDraw, PlacementResult]:
     """A sign drawn higher than its lowest mounting that found no place, placed again mounted
@@ -214,8 +221,7 @@ def _mounted_lowest(o: PlaceOptions, prep: Prepared, spec: ObjectSpec, index: in
     little footway far enough off holds it lower. Its model, draw (``lowered_from``: the
     mounting first drawn) and result, or, placed nowhere either, the attempts of both."""
     model, low, _ = object_model(o.seed, spec, prep.ident.key, index, lowest=True)
-    result = place_object(prep.frame, spec.class_name, model.extents, prep.rng, o.rules, spec.allowed_surfaces,
-                          spec.orientation, others, trace=trace, pose_hint=_posed_as(low, None))
+    result = _search(o, prep, spec, model.extents, others, trace, _posed_as(low, None))
     if result.placement is None:
         rejections = Counter(dict(failed.rejections)) + Counter(dict(result.rejections))
         return model, low, PlacementResult(None, failed.attempts + result.attempts, dict(rejections))
