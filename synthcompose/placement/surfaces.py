@@ -22,7 +22,8 @@ disparity and the photo.
    from the gutter, which a road's camber hides from the height over the profile) at the
    footway's height, unless as saturated as grass (no road beyond that kerb either); and a
    sunlit stretch of a footway found in the shade (yellower than the shaded road as grass is,
-   but no more saturated) where it joins that footway.
+   but no more saturated) where it joins that footway; less a strip along the row narrower
+   than a footway between the road and grass (a kerb's top, a verge's edge: strips.py).
    **Terrain**: a grass verge or island - flat, up a kerb above the road, yellow-green
    and more saturated than it (or as saturated as grass), beside the road (a sign may stand there, a person does not walk there).
    Everything else is 0 (unlabelled).
@@ -45,6 +46,7 @@ from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_til
 from .kerbs import beyond_kerbs
 from .kerbs_ahead import kerb_ahead
 from .noise import measure_sigma
+from .strips import kerb_strips, verges
 
 ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
 #: work at this fraction of the full resolution (heights and colours are smooth; labels are upsampled)
@@ -218,6 +220,10 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     side = _joined(side, sunlit)
     ahead = cv2.morphologyEx(ahead.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     side |= ahead & ~road
+    # a strip narrower than a footway between the road and a verge is a kerb's top and the
+    # verge's edge, no footway (strips.py)
+    verge_grass = verges(grass & flat & (raised | level) & ~foot, hsv[..., 2], seed, z)
+    side &= ~kerb_strips(side, verge_grass, z, sub.fx, sub.u0)
     # a grass verge or island: flat ground up a kerb beside the road, yellow-green and more
     # saturated than the road (level green is left out: sunlit asphalt and a crossing's
     # paving read as yellower too, and a sign must not stand on the carriageway)
