@@ -46,6 +46,7 @@ from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_til
 from .kerbs import beyond_kerbs
 from .kerbs_ahead import kerb_ahead
 from .noise import measure_sigma
+from .road_colour import road_coloured, road_models, road_region, saturation_by_value
 from .strips import kerb_strips, verges
 
 ROAD, SIDEWALK, TERRAIN = label_id("road"), label_id("sidewalk"), label_id("terrain")
@@ -74,16 +75,6 @@ FOOT_REACH = 0.6
 #: the car's own lane ahead (within LANE_HALF of the camera's line), 4 m to
 #: LANE_REACH ahead, level and continuous from the seed, is carriageway, sunlit or in shadow
 LANE_REACH = 40.0
-#: a second light on the lane (a sunlit band beyond a cast shadow, or the reverse): lane
-#: pixels off the road's colour models on rows where at least LANE_BAND_SHARE of the lane is off
-#: them (a light band spans the lane; paint does not), at least LANE_MODE_SHARE of the frame's
-#: working pixels and 30 pixels (a far patch of sun is few pixels: a count, not a share of the lane)
-LANE_BAND_SHARE, LANE_MODE_SHARE = 0.6, 1e-4
-#: the road's saturation is measured per brightness bin of this many HSV value levels, in bins
-#: that hold at least VALUE_LEAST of the seed's pixels
-VALUE_BIN, VALUE_LEAST = 16, 100
-#: the colour model's least robust spread, LAB
-SPREAD_FLOOR = (10.0, 4.0, 4.0)
 
 
 @dataclass(frozen=True)
@@ -165,10 +156,10 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # in the trees' shadows, a bus bay in shade 67). The footway's and the verge's tests below
     # keep the seed's median: read by brightness, dark terrain under trees passed for footway
     # (dusseldorf_000020's footway precision 0.74 to 0.70)
-    grass_px = hue_green & (hsv[..., 1] >= _saturation_by_value(hsv, seed, s_road) + GRASS_SATURATION)
+    grass_px = hue_green & (hsv[..., 1] >= saturation_by_value(hsv, seed, s_road) + GRASS_SATURATION)
     lane = _lane(level & ~grass_px, seed & ~grass_px, z, sub)
-    models = _road_models(lab, seed & ~grass_px, lane)
-    road = _road(level & ~grass_px, (seed | lane) & ~grass_px, lab, models)
+    models = road_models(lab, seed & ~grass_px, lane)
+    road = road_region(level & ~grass_px, (seed | lane) & ~grass_px, lab, models)
     # a footway's and a verge's grass test reads saturation as a region has it: a paving's
     # joints and grit scatter single pixels over it (a median of 5 pixels leaves them out and
     # keeps a verge's edge where it is; a mean would spread the verge's saturation onto the
@@ -198,7 +189,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     road &= ~beyond
     side = ((raised & ~green & even) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
-        side |= level & flat & even & ~green & ~road & ~foot & ~_road_coloured(lab, models)
+        side |= level & flat & even & ~green & ~road & ~foot & ~road_coloured(lab, models)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
@@ -291,30 +282,6 @@ def _between(mask: np.ndarray, reach) -> np.ndarray:
     return (left >= 0) & (right < mask.shape[1]) & (cols - left <= reach) & (right - cols <= reach)
 
 
-def _saturation_by_value(hsv: np.ndarray, seed: np.ndarray, floor: float) -> np.ndarray:
-    """(h, w) float32: the road's hue saturation at each pixel's brightness (HSV value, a
-    5-pixel median, in bins of VALUE_BIN): the median over the ``seed``'s pixels of that
-    brightness where it is higher than ``floor``, the seed's median over all (a darker road
-    reads more saturated; the brightest bins of a seed hold its white paint, which reads less,
-    so they keep the median over all); a brightness with fewer than VALUE_LEAST seed pixels
-    takes the nearest bin's that has them (40 where no bin has them)."""
-    value = cv2.medianBlur(hsv[..., 2], 5)
-    of = value // VALUE_BIN
-    s = hsv[..., 1][seed]
-    where = of[seed]
-    table = np.full(256 // VALUE_BIN, np.nan, np.float32)
-    for k in np.unique(where):
-        inside = where == k
-        if inside.sum() >= VALUE_LEAST:
-            table[k] = np.median(s[inside])
-    known = np.flatnonzero(np.isfinite(table))
-    if len(known) == 0:
-        return np.full(value.shape, 40.0, np.float32)
-    table = np.maximum(table, np.float32(floor))
-    nearest = known[np.abs(np.arange(len(table))[:, None] - known[None, :]).argmin(axis=1)]
-    return table[nearest][of]
-
-
 def _seed(level: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Level ground 6-15 m ahead of the car, in the central columns: the road the car is on."""
     h, w = level.shape
@@ -336,56 +303,6 @@ def _lane(level: np.ndarray, seed: np.ndarray, z: np.ndarray, cam: Camera) -> np
     keep[np.unique(comp[seed & lane])] = True
     keep[0] = False
     return keep[comp] & lane
-
-
-def _model(ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(median, robust spread) of (N, 3) LAB colours."""
-    med = np.median(ref, axis=0)
-    return med, np.maximum(1.4826 * np.median(np.abs(ref - med), axis=0), SPREAD_FLOOR)
-
-
-def _road_models(lab: np.ndarray, seed: np.ndarray, lane: np.ndarray) -> list:
-    """Colour models of the road: the ground in front of the car and, where the lane ahead
-    runs on into another light (sunlit beyond a cast shadow, or shadowed beyond sun: the same
-    asphalt, its colour scaled by the shadow's ratio per channel), a model of that light from
-    the lane's pixels there (at most two more)."""
-    if seed.sum() < 100:
-        return []
-    models = [_model(lab[seed])]
-    rows = np.nonzero(lane.any(axis=1))[0]
-    for _ in range(2):
-        off = lane & ~_road_coloured(lab, models)
-        n_lane, n_off = lane[rows].sum(axis=1), off[rows].sum(axis=1)
-        band = rows[(n_off >= LANE_BAND_SHARE * n_lane) & (n_off >= 3)]
-        pick = np.zeros_like(lane)
-        pick[band] = off[band]
-        if pick.sum() < max(30, LANE_MODE_SHARE * lane.size):
-            break
-        models.append(_model(lab[pick]))
-    return models
-
-
-def _road_coloured(lab: np.ndarray, models: list, limit: float = 3.0) -> np.ndarray:
-    """Pixels within ``limit`` robust spreads of one of the road's colour models."""
-    out = np.zeros(lab.shape[:2], bool)
-    for med, spread in models:
-        out |= np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < limit
-    return out
-
-
-def _road(level: np.ndarray, seed: np.ndarray, lab: np.ndarray, models: list) -> np.ndarray:
-    """The level pixels of the road's colours connected to the ground in front of the car."""
-    h, w = level.shape
-    if not models:
-        return np.zeros((h, w), bool)
-    road = level & _road_coloured(lab, models)
-    road = cv2.morphologyEx(road.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-    road = cv2.morphologyEx(road, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8)).astype(bool) & level
-    n, comp = cv2.connectedComponents(road.astype(np.uint8), connectivity=4)
-    keep = np.zeros(n, bool)
-    keep[np.unique(comp[seed & road])] = True
-    keep[0] = False
-    return keep[comp]
 
 
 def frame_for(image_set, depth: np.ndarray | None = None):
