@@ -1,6 +1,7 @@
 """Stage 2b, step 1 of the label-free surfaces (surfaces.py): the road's ground profile - the
 disparity of the ground on each image row, following the road's slope, the car's pitch and the
-road's bends - and the road's remaining tilt and camber across and along the view."""
+road's bends - and the road's remaining tilt and camber across and along the view; and what
+lies level with the road of its own row."""
 from __future__ import annotations
 
 import numpy as np
@@ -125,3 +126,16 @@ def road_tilt(height: np.ndarray, d: np.ndarray, cam: Camera, fb: float) -> np.n
     held = np.clip(lat, -CROWN_REACH, CROWN_REACH)
     tilt = coef[0] + coef[1] * np.nan_to_num(z) + coef[2] * lat + coef[3] * held ** 2
     return tilt.astype(np.float32)
+
+
+def level_with_row_road(height: np.ndarray, road: np.ndarray, band: np.ndarray, least: int = 10) -> np.ndarray:
+    """(h, w) bool: pixels less than ``band`` above the median height of their row's ``road``
+    pixels (none on rows with fewer than ``least`` of them)."""
+    rows = np.flatnonzero(road.sum(axis=1) >= least)
+    out = np.zeros(height.shape, bool)
+    if len(rows) == 0:
+        return out
+    med = np.nanmedian(np.where(road[rows], height[rows], np.nan), axis=1)
+    with np.errstate(invalid="ignore"):
+        out[rows] = height[rows] - med[:, None] < band[rows]
+    return out

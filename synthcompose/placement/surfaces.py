@@ -17,7 +17,8 @@ disparity and the photo.
    where it runs into a band of another light (sun beyond a shadow, or shadow beyond sun) that
    light's road colour is modelled from it too.
    **Sidewalk**: flat pixels 5-35 cm above the road (even along the row too: not ground that
-   climbs into a parked car), not green (grass), in regions beside the
+   climbs into a parked car; of the road's colour, a kerb above the road of their own row too:
+   not a side street climbing away), not green (grass), in regions beside the
    road; and the flat ground beyond a kerb found across the street (kerbs.py: the step up
    from the gutter, which a road's camber hides from the height over the profile) at the
    footway's height, unless as saturated as grass (no road beyond that kerb either); and a
@@ -42,7 +43,7 @@ from synthcompose.geometry.depth import nearest_in_row
 from synthcompose.io.files import decode_disparity
 from synthcompose.labels import label_id
 
-from .ground_profile import LANE_HALF, ground_profile, plane_disparity, road_tilt
+from .ground_profile import LANE_HALF, ground_profile, level_with_row_road, plane_disparity, road_tilt
 from .kerbs import beyond_kerbs
 from .kerbs_ahead import kerb_ahead
 from .noise import measure_sigma
@@ -187,7 +188,11 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     beyond |= past
     ahead &= ~green & ~foot
     road &= ~beyond
-    side = ((raised & ~green & even) | kerbside) & ~road & ~foot
+    # raised over the profile but level with the road of its own row, in the road's colour: a
+    # side street or a bus bay climbing away from the profile is carriageway (a footway stands
+    # a kerb above the road beside it)
+    climbing = road_coloured(lab, models) & level_with_row_road(smooth, road, band)
+    side = ((raised & ~green & even & ~climbing) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
         side |= level & flat & even & ~green & ~road & ~foot & ~road_coloured(lab, models)
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from synthcompose.geometry.depth import disparity_to_depth
+from synthcompose.placement.ground_profile import level_with_row_road
 from synthcompose.placement.strips import kerb_strips, verges
 from synthcompose.placement.surfaces import GRASS_SATURATION, ROAD, SIDEWALK, TERRAIN, find_surfaces
 from synthcompose.synthetic import SceneLight, random_scene, render_scene, render_scene_sunlit
@@ -384,3 +385,23 @@ def test_the_grass_that_bounds_a_strip_is_a_verge_along_the_street():
     sunlit = value.copy()
     sunlit[verge] = 75  # 1.25 times the road's value
     assert not verges(verge, sunlit, seed, z).any()
+
+
+def test_ground_level_with_its_own_rows_road_is_told_within_the_noise_band():
+    """level_with_row_road: the profile may lag where a side street climbs away (dusseldorf_000020:
+    a cross street 0.15-0.23 m over the profile at 37-65 m, the ego road 0.05-0.13 on the same
+    rows, noise band 0.11-0.19); ground less than the band above its row's road is level with
+    it, a footway a kerb above it is not, and a row with too little road says nothing."""
+    h, w = 6, 100
+    height = np.full((h, w), 0.10, np.float32)
+    road = np.zeros((h, w), bool)
+    road[:, :60] = True
+    height[:, 60:80] = 0.18  # a side street, 8 cm over the row's road
+    height[:, 80:] = 0.30  # a footway, 20 cm over it
+    road[5, 12:60] = False  # the last row has 12 road pixels only ...
+    road[5, :2] = False  # ... 10: still enough; the one above loses all
+    road[4] = False
+    band = np.full((h, w), 0.12, np.float32)
+    level = level_with_row_road(height, road, band)
+    assert level[:4, 60:80].all() and not level[:4, 80:].any()
+    assert level[5, 60:80].all() and not level[4].any()
