@@ -191,10 +191,11 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # raised over the profile but level with the road of its own row, in the road's colour: a
     # side street or a bus bay climbing away from the profile is carriageway (a footway stands
     # a kerb above the road beside it)
-    climbing = road_coloured(lab, models) & level_with_row_road(smooth, road, band)
+    coloured = road_coloured(lab, models)
+    climbing = coloured & level_with_row_road(smooth, road, band)
     side = ((raised & ~green & even & ~climbing) | kerbside) & ~road & ~foot
     if LEVEL_SIDEWALK:  # level with the road but not of its colour, flat, beside it (paving)
-        side |= level & flat & even & ~green & ~road & ~foot & ~road_coloured(lab, models)
+        side |= level & flat & even & ~green & ~road & ~foot & ~coloured
     side = cv2.morphologyEx(side.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     side = cv2.morphologyEx(side, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     # a sidewalk lies beside the road, not inside it: raised or paved patches with road on both
