@@ -2,6 +2,7 @@
 cast shadow changes the light on the road, not the road."""
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import cv2
@@ -300,14 +301,21 @@ def test_ground_climbing_into_a_parked_car_is_no_footway():
     assert (labels == SIDEWALK)[near].mean() > 0.9 * (clean == SIDEWALK)[near].mean()
 
 
+@functools.lru_cache(maxsize=1)
+def _two_way_street():
+    """A generated two-way street, rendered once for the kerb strips' tests (read, never
+    changed)."""
+    scene = random_scene(np.random.default_rng([31, 1]), 1024, 512, street="two-way")
+    return scene, render_scene(scene, stereo="realistic", photo="realistic")
+
+
 def _kerb_strip_scene(paved_m: float):
     """A generated two-way street whose footways are paved for ``paved_m`` from the kerb and
     grass beyond (greener, yellower and darker than the road, by what real verges measure):
     the photo, the disparity, the camera and the paved strip's mask within 25 m on the rows
     that see half a metre of grass beyond it (nearer, the image's edge cuts the grass off: a
     strip's width is not seen there)."""
-    scene = random_scene(np.random.default_rng([31, 1]), 1024, 512, street="two-way")
-    arrays = render_scene(scene, stereo="realistic", photo="realistic")
+    scene, arrays = _two_way_street()
     truth, cam = arrays["label_ids"], scene.camera
     z = disparity_to_depth(arrays["disparity"], cam)
     with np.errstate(invalid="ignore"):
