@@ -66,6 +66,8 @@ PAINT_M = 1.5
 LEVEL_BAND = 0.05
 #: grass: green, more saturated than the road by this much, or yellower (LAB b*) by this much
 GRASS_SATURATION, GRASS_YELLOW = 18, 5
+#: a grass shoulder level with the road: at least this much greener (LAB a*) than the road
+GRASS_GREEN = 6
 #: a grass verge: at most this OpenCV hue (yellow-green, not the cyan cast of dark asphalt)
 #: and at least this much more saturated than the road
 VERGE_HUE_MAX, VERGE_SATURATION = 65, 5
@@ -229,6 +231,14 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # or as saturated as grass, if not yellower (dull grass, a strip under fallen leaves)
     verdant |= grass & verge_hue
     verge = raised & verdant & ~road & ~side & ~foot & ~enclosed
+    # or a grass shoulder level with the road (no kerb: a country road's verge): as saturated
+    # as grass and greener than the road (chlorophyll: a* below the asphalt's neutral grey;
+    # sunlit asphalt and paving read yellower, never greener); without a kerb between them the
+    # colours' blur is their only border: the road's edge pixels are left to it
+    a_road = float(np.median(lab[..., 1][seed])) if seed.any() else 128.0
+    lush = grass & verge_hue & (lab[..., 1] <= a_road - GRASS_GREEN)
+    road_edge = cv2.dilate(road.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    verge |= level & flat & even & lush & ~road_edge & ~side & ~foot & ~enclosed
     verge = cv2.morphologyEx(verge.astype(np.uint8), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8)).astype(bool)
     verge = _beside(verge, near_road)
     small_labels = np.zeros((h, w), np.uint8)

@@ -413,3 +413,32 @@ def test_ground_level_with_its_own_rows_road_is_told_within_the_noise_band():
     level = level_with_row_road(height, road, band)
     assert level[:4, 60:80].all() and not level[:4, 80:].any()
     assert level[5, 60:80].all() and not level[4].any()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_grass_shoulder_level_with_the_road_is_terrain_and_yellow_level_ground_is_not(seed):
+    """A country road's verge has no kerb: grass level with the asphalt. Green (LAB a* 12 below
+    the road's; leverkusen_000048's shoulder measures 11) and as saturated as grass, it is found
+    as terrain, where a sign may stand, beside the road and never on it; before, only a verge up
+    a kerb was. Level ground only yellower than the road (sunlit asphalt, paving), not greener,
+    stays no verge."""
+    scene = random_scene(np.random.default_rng([31, seed]), 1024, 512, street="two-way" if seed % 2 else None)
+    arrays = render_scene(replace(scene, kerb_height=0.0), stereo="realistic", photo="realistic")
+    truth = arrays["label_ids"]
+    z = disparity_to_depth(arrays["disparity"], scene.camera)
+    strip, road = truth == SIDEWALK, truth == ROAD
+    found = {}
+    for name, (da, db) in {"grass": (-12.0, 16.0), "sunlit": (0.0, 26.0)}.items():
+        lab = cv2.cvtColor(arrays["rgb"], cv2.COLOR_RGB2LAB).astype(np.float32)
+        for c, shift in ((1, da), (2, db)):
+            lab[..., c][strip] += np.median(lab[..., c][road]) + shift - np.median(lab[..., c][strip])
+        rgb = cv2.cvtColor(np.clip(lab, 0, 255).astype(np.uint8), cv2.COLOR_LAB2RGB)
+        sat = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 1].astype(np.float32)
+        assert np.median(sat[strip]) - np.median(sat[road]) > GRASS_SATURATION, name  # both as saturated as grass
+        found[name] = find_surfaces(arrays["disparity"], rgb, scene.camera).labels == TERRAIN
+    near = strip & (z < 25)
+    verge = found["grass"]
+    assert verge[near].mean() > 0.2  # the road's edge pixels left out: 1-2 px of a strip 4-30 px wide
+    assert (truth[verge] == SIDEWALK).mean() > SIDEWALK_FOUND_PRECISION_MIN
+    assert (truth[verge] == ROAD).mean() < 0.01
+    assert found["sunlit"][near].mean() < 0.02
