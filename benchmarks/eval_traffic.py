@@ -102,6 +102,8 @@ def analyse(out: Path) -> dict:
         for obj in rec.objects:
             asked[obj.class_name] += 1
             placed[obj.class_name] += 1
+        for name, why in (rec.not_drawn or {}).items():  # it could stand nowhere in the frame
+            counts[f"frames where {name!r} was not drawn ({why})"] += 1
         # per slot's first draw (the kind the slot was asked as): a substitute, placed or not, is
         # the batch's retry, not an object of its kind asked (the record names what replaced what)
         named = {obj.name: obj.class_name for obj in rec.objects}

@@ -187,6 +187,7 @@ class ImageSetRecord:
     views: tuple[str, ...] = ("left",)  # the photos the objects were composed into: "left", and "right"
     street: Mapping[str, Any] | None = None  # placement.street.Street.to_dict(): the street found
     placement_rules: Mapping[str, Any] | None = None  # the PlacementRules the objects were placed by
+    not_drawn: Mapping[str, str] | None = None  # manifest objects not drawn here -> why (they stand nowhere)
 
     def with_(self, **changes) -> "ImageSetRecord":
         return replace(self, **changes)
@@ -198,7 +199,7 @@ class ImageSetRecord:
                              "labels": self.labels, "stereo_noise": dict(self.stereo_noise),
                              "lighting": dict(self.lighting), "objects": [o.to_json() for o in self.objects],
                              "not_placed": [dict(f) for f in self.not_placed]}
-        for key in ("placement_file", "camera_match", "image", "street", "placement_rules"):
+        for key in ("placement_file", "camera_match", "image", "street", "placement_rules", "not_drawn"):
             value = getattr(self, key)
             if value is not None:
                 d[key] = dict(value)
@@ -219,7 +220,8 @@ class ImageSetRecord:
                        tuple(ObjectRecord.from_json(o) for o in d.get("objects", [])),
                        tuple(d.get("not_placed", [])), d.get("placement_file"), d.get("camera_match"), d.get("image"),
                        None if d.get("status") is None else Status(d["status"]), int(d.get("record_version", 0)),
-                       tuple(str(v) for v in d.get("views", ["left"])), d.get("street"), d.get("placement_rules"))
+                       tuple(str(v) for v in d.get("views", ["left"])), d.get("street"), d.get("placement_rules"),
+                       d.get("not_drawn"))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
             raise RecordError(path or Path("<record>"),
                               f"is not a synthcompose record ({type(exc).__name__}: {exc})") from None

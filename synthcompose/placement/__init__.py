@@ -46,7 +46,7 @@ from .rules import (
     box_corners,
     label_mask,
 )
-from .search import place_object
+from .search import no_ground, place_object
 from .street import Street, find_street
 
 __all__ = [
@@ -54,7 +54,7 @@ __all__ = [
     "ORIENTATION", "ORIENTATIONS", "POSE_GROUND_SEARCH", "RULE_OF", "GroundFit", "Placement", "PlacementResult",
     "PlacementRules", "PoseTests", "Rejection", "RoadLine", "StereoNoise", "visibility_of", "box_corners", "check_pose",
     "fit_ground", "fit_road_line", "footprint_corners", "footprint_grid", "footprint_support", "footprints_overlap",
-    "frame_noise", "ground_points", "label_mask", "local_ground", "penetration", "place_object", "pose_matrix",
+    "frame_noise", "ground_points", "label_mask", "local_ground", "no_ground", "penetration", "place_object", "pose_matrix",
     "prefilter", "rays_hit_box", "road_line", "scene_clearance", "stereo_noise", "strict_inside", "surface_edges",
     "Street", "Traffic", "find_street",
 ]

@@ -135,6 +135,17 @@ class _Candidates:
         return back_project(self.depth, self.camera, self.rows[idx:idx + 1], self.cols[idx:idx + 1])[1][0]
 
 
+def no_ground(frame: Frame, class_name: str, allowed: Sequence[str] | None, rules: PlacementRules) -> str | None:
+    """Why an object of ``class_name`` can stand nowhere in the frame before any candidate is
+    drawn (the frame shows none of its surfaces with valid depth in the distance range), or
+    None. The search's own first test; the cast draws no such object (stages/place.py)."""
+    allowed = surfaces_for(class_name, allowed)
+    if len(candidates(frame, np.array([label_id(n) for n in allowed]), rules.distance)):
+        return None
+    lo, hi = rules.distance
+    return f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"
+
+
 def _blocking(label_ids: np.ndarray, labelled: bool, allowed_ids: np.ndarray) -> np.ndarray:
     """Bool mask of the pixels of ``label_ids`` a footprint on the allowed surface cannot cover:
     other ground-level surfaces (a footprint sample hidden by something standing there is not
@@ -271,9 +282,8 @@ def place_object(frame: Frame, class_name: str, extents: tuple[float, float, flo
     camera = frame.camera
     rejections: Counter[str] = Counter() if trace is None else _TracedCounter(trace)
     pool = candidates(frame, allowed_ids, rules.distance)
-    lo, hi = rules.distance
     if len(pool) == 0:
-        rejections[f"no {'/'.join(allowed)} pixel with valid depth within {lo}-{hi} m"] += 1
+        rejections[no_ground(frame, class_name, allowed, rules)] += 1
         return PlacementResult(None, 0, dict(rejections))
     pool = pool.fitting(min(extents[0], extents[1]) / 2)
     if not rules.allow_truncation:  # a tall sign near the camera leaves the image at the top

@@ -21,7 +21,7 @@ from synthcompose.labels import HAS_INSTANCES, INSTANCE_FACTOR, label_id
 from synthcompose.manifest import ObjectSpec
 from synthcompose.models import Model, load_model, posable, pose_rng, posed_model
 from synthcompose.models.poses import KINDS, WALKING_SHARE
-from synthcompose.placement import Placement, PlacementResult, check_pose, frame_noise, place_object
+from synthcompose.placement import Placement, PlacementResult, check_pose, frame_noise, no_ground, place_object
 from synthcompose.placement.ends import end_record
 from synthcompose.placement.lanes import lanes
 from synthcompose.placement.noise import StereoNoise
@@ -286,6 +286,23 @@ def _redraw(o: PlaceOptions, weights: np.ndarray, prep: Prepared, objects: list,
     return out
 
 
+def drawable(o: PlaceOptions, weights: np.ndarray, prep: Prepared) -> tuple[np.ndarray, dict[str, str]]:
+    """The weights the frame's objects are drawn by, and what is not drawn, by name, and why.
+    With ``redraw_unplaced`` (the manifest asks for a number of objects, not for each kind) an
+    object whose surfaces the frame does not show in the distance range (a person where no
+    footway is seen) is not drawn: it could stand nowhere (the search's own first test). Where
+    every object can stand, or none can, the weights as they are (the same draws)."""
+    if not o.redraw_unplaced:
+        return weights, {}
+    why = {s.name: no_ground(prep.frame, s.class_name, s.allowed_surfaces, o.rules)
+           for s, w in zip(o.objects, weights) if w > 0}
+    nowhere = {name: reason for name, reason in why.items() if reason is not None}
+    if not nowhere or len(nowhere) == len(why):
+        return weights, {}
+    kept = np.array([w if s.name not in nowhere else 0.0 for s, w in zip(o.objects, weights)])
+    return kept / kept.sum(), nowhere
+
+
 def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings,
           saved: SavedPlacement | None = None, trace: list | None = None) -> Placed:
     """Draw ``o.objects_per_image`` objects (by ``weights``) and place each in the frame, the
@@ -297,7 +314,9 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
     objects: list[PlacedObject] = []
     taken = _taken_by_polygons(o.dataset, ident)  # instance ids given
     with timed(timings, "placement"):
+        not_drawn: dict[str, str] = {}
         if saved is None:  # drawn first, then placed: those that stand on a footway before vehicles
+            weights, not_drawn = drawable(o, weights, prep)
             specs = [o.objects[int(rng.choice(len(o.objects), p=weights))] for _ in range(o.objects_per_image)]
             order = sorted(range(len(specs)), key=lambda k: where_it_stands(specs[k].class_name) not in FOOTWAY_FIRST)
         else:
@@ -343,6 +362,6 @@ def place(o: PlaceOptions, weights: np.ndarray, prep: Prepared, timings: Timings
                                                    "sha256": saved.sha256},
         street=None if street is None else street.to_dict() | {
             "lanes": [lane.to_dict() for lane in lanes(frame, street, hand)], "end": end_record(frame, street)},
-        placement_rules=rules_dict(o.rules))
+        placement_rules=rules_dict(o.rules), not_drawn=not_drawn or None)
     return Placed(tuple(objects), tuple(failures), saved, noise, record)
 

@@ -242,30 +242,53 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     assert ids[3].path(tmp_path / "w", "record").is_file() and ids[0].path(tmp_path / "w", "record").is_file()
 
 
+def _sign_or(car: dict) -> list[dict]:
+    """A manifest's objects: ``car``, drawn for nearly every slot, and a sign at the kerb."""
+    return [car | {"name": "car", "model": "builtin:box", "class": "car", "weight": 1e6},
+            {"name": "sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5},
+             "orientation": "face-camera", "weight": 1e-3}]
+
+
 def test_an_object_without_a_place_is_replaced_by_one_that_stands_elsewhere(dataset, tmp_path):
-    """A car allowed only on grass (the generated frames have none) is drawn for every slot; each
-    is replaced by a sign, which stands at the kerb, and the record says which it replaced. With
-    ``redraw_unplaced`` false the slots stay empty."""
+    """A car 60 m long fits no lane: drawn for every slot, each is replaced by a sign, which
+    stands at the kerb, and the record says which it replaced."""
     root, ids = dataset
-    objects = [{"name": "car on grass", "model": "builtin:box", "class": "car", "size": {"length": 4.0},
-                "allowed_surfaces": ["terrain"], "weight": 1e6},
-               {"name": "sign", "model": "builtin:traffic-sign", "class": "traffic sign", "size": {"height": 2.5},
-                "orientation": "face-camera", "weight": 1e-3}]
     out = tmp_path / "out"
-    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out, objects=objects)), "--no-progress"]) == 0
-    records = [json.loads(ident.path(out, "record").read_text()) for ident in ids]
+    manifest = write_manifest(tmp_path / "m.json", root, out, objects=_sign_or({"size": {"length": 60.0}}))
+    assert main(["batch", str(manifest), "--no-progress"]) == 0
     signs = 0
-    for record in records:
+    for ident in ids:
+        record = json.loads(ident.path(out, "record").read_text())
         missed = record["not_placed"]
         assert [m["class"] for m in missed] == ["car", "car"]  # both slots drew the car
         assert all(o["class"] == "traffic sign" for o in record["objects"])
         assert sum(m.get("replaced_by") == "sign" for m in missed) == len(record["objects"])
+        assert "not_drawn" not in record  # the car had road to try
         signs += len(record["objects"])
     assert signs >= len(ids)  # the frames have footway for a sign
+
+
+def test_an_object_whose_ground_the_frame_lacks_is_not_drawn(dataset, tmp_path):
+    """A car allowed only on grass, where the generated frames have none, could stand nowhere:
+    it is not drawn (the record says why) and the slots get signs. With ``redraw_unplaced``
+    false (each object as drawn) it is drawn for both slots, which stay empty."""
+    root, ids = dataset
+    objects = _sign_or({"size": {"length": 4.0}, "allowed_surfaces": ["terrain"]})
+    out = tmp_path / "out"
+    assert main(["batch", str(write_manifest(tmp_path / "m.json", root, out, objects=objects)), "--no-progress"]) == 0
+    for ident in ids:
+        record = json.loads(ident.path(out, "record").read_text())
+        assert list(record["not_drawn"]) == ["car"]
+        assert record["not_drawn"]["car"].startswith("no terrain pixel with valid depth within")
+        assert all(m["class"] == "traffic sign" for m in record["not_placed"])
+        assert record["objects"] and all(o["class"] == "traffic sign" for o in record["objects"])
     none = tmp_path / "none"
     manifest = write_manifest(tmp_path / "n.json", root, none, objects=objects, redraw_unplaced=False)
     assert main(["batch", str(manifest), "--no-progress"]) == 0
-    assert all(json.loads(ident.path(none, "record").read_text())["objects"] == [] for ident in ids)
+    for ident in ids:
+        record = json.loads(ident.path(none, "record").read_text())
+        assert record["objects"] == [] and [m["class"] for m in record["not_placed"]] == ["car", "car"]
+        assert "not_drawn" not in record
 
 
 def test_a_car_may_stand_in_for_a_bus_that_found_no_lane_not_the_other_way():
