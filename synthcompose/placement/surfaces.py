@@ -150,6 +150,7 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # test is relative to the saturation of the level ground in front of the car
     s_road = float(np.median(hsv[..., 1][seed])) if seed.any() else 40.0
     b_road = float(np.median(lab[..., 2][seed])) if seed.any() else 132.0
+    a_road = float(np.median(lab[..., 1][seed])) if seed.any() else 128.0
     hue_green = (hsv[..., 0] >= 25) & (hsv[..., 0] <= 95)
     # the road is kept off grass by saturation alone, pixel by pixel: sunlight is yellower than
     # the skylight of a shadow, so sunlit asphalt beside a shaded seed is b* units yellower,
@@ -235,7 +236,6 @@ def find_surfaces(disparity_png: np.ndarray, rgb: np.ndarray, camera: Camera) ->
     # as grass and greener than the road (chlorophyll: a* below the asphalt's neutral grey;
     # sunlit asphalt and paving read yellower, never greener); without a kerb between them the
     # colours' blur is their only border: the road's edge pixels are left to it
-    a_road = float(np.median(lab[..., 1][seed])) if seed.any() else 128.0
     lush = grass & verge_hue & (lab[..., 1] <= a_road - GRASS_GREEN)
     road_edge = cv2.dilate(road.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     verge |= level & flat & even & lush & ~road_edge & ~side & ~foot & ~enclosed
