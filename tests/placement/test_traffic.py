@@ -237,6 +237,29 @@ def test_left_hand_traffic_mirrors_the_directions():
     assert [lane.direction for lane in _carriageway_lanes(left_hand, 0, -1, {})] == [-1, 1]
 
 
+def test_where_nothing_tells_the_direction_the_ego_lane_reaches_half_a_lane_to_the_oncoming_side():
+    """leverkusen_000048: a car ahead hides the right kerb and the ego vehicle straddles a centre
+    line the markings missed; the carriageway left is one 4 m "lane" from the car ahead to a
+    strip along the verge, whose left part is the oncoming half (a real car comes towards us
+    there). Where nothing tells the direction, the ego vehicle's lane reaches half a lane to the
+    oncoming side and the rest is ``untold``; left-hand traffic mirrors it; a dual road's other
+    half beyond the oncoming kerb tells the direction, and the lane is whole."""
+    strip = StreetLine(2.98, "dashed", 9.0, 20.0, 4.0)
+    cw = Carriageway(-1.0, 3.55, (strip,), None, 0, "one-way")
+    got = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(cw, 0, 1, {}, ego_s=-0.04)]
+    assert got == [("moving", -1.0, pytest.approx(1.835)), ("untold", pytest.approx(1.835), 2.98),
+                   ("none", 2.98, 3.55)]
+    mirrored = Carriageway(-3.55, 1.0, (StreetLine(-2.98, "dashed", 9.0, 20.0, 4.0),), None, 0, "one-way")
+    got = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(mirrored, 0, -1, {}, ego_s=0.04)]
+    assert got == [("none", -3.55, -2.98), ("untold", -2.98, pytest.approx(-1.835)),
+                   ("moving", pytest.approx(-1.835), 1.0)]
+    dual = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(cw, 0, 1, {}, ego_s=-0.04, dual=True)]
+    assert dual == [("moving", -1.0, 2.98), ("none", 2.98, 3.55)]
+    # a lane that reaches less than half a lane and a little to the ego vehicle's left is whole
+    narrow = Carriageway(-1.6, 1.85, (), None, 0, "one-way")
+    assert [ln.role for ln in _carriageway_lanes(narrow, 0, 1, {}, ego_s=0.15)] == ["moving"]
+
+
 def test_a_street_without_a_sign_of_its_direction_has_no_vehicle_beyond_the_ego_lane():
     """No centre line and the ego vehicle not keeping right of the middle: the street is taken
     as one-way, but it may be a two-way street whose left half comes towards us. The lanes
