@@ -15,7 +15,7 @@ points across it).
    over 6 m without a break, else *dashed*. Two thin lines 1.3-1.6 m apart along the road are
    tram rails, not lane lines.
 2. **Carriageways**: the ego carriageway between the nearest kerb line on each side (or where
-   its road ends); beyond a kerb, another carriageway where road runs between two kerb lines
+   its road ends: the ground under and behind a car is hidden, not off the road); beyond a kerb, another carriageway where road runs between two kerb lines
    (a dual road's other half).
 3. **Centre and direction** (``traffic.py`` for the lanes): the centre of a two-way
    carriageway is the lane marking left of the ego vehicle nearest to the middle between its
@@ -67,6 +67,9 @@ ONCOMING_LANE, SOLID_PENALTY = 2.5, 1.5
 TWO_WAY_OFFSET, TWO_WAY_WIDTH = 0.6, 5.0
 #: zebra stripes repeat across the street every this many metres
 ZEBRA_PERIOD = 1.0
+#: a ground cell is hidden where what the camera sees this far above it (metres) is nearer than
+#: this share of its own depth
+HIDDEN_OVER, HIDDEN_NEARER = 0.5, 0.95
 #: the ego carriageway's kerbs: the nearest kerb line on each side seen this near
 KERB_NEAR = 18.0
 
@@ -188,11 +191,12 @@ def _build(frame: Frame, hand: int) -> Street:
 @dataclass(frozen=True)
 class _RoadProfile:
     """Share of the street's length (a bins 6-30 m) with road seen at each offset s, of the
-    length the camera sees there (inside the image)."""
+    length the camera sees there (inside the image, and not under or behind something nearer:
+    the road runs on under a car ahead)."""
 
     share: np.ndarray
     s0: float
-    seen: np.ndarray  # cells seen per offset
+    seen: np.ndarray  # cells inside the image per offset
 
     def at(self, lo: float, hi: float) -> float:
         i0, i1 = int((lo - self.s0) / S_BIN), int((hi - self.s0) / S_BIN)
@@ -228,9 +232,25 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     with np.errstate(invalid="ignore", divide="ignore"):
         uv = frame.camera.project(opt)
     H, W = frame.shape
-    seen = ((opt[:, 2] > 1.0) & (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)).reshape(aa.shape)
-    share = occ[:, 6:31].sum(axis=1) / np.maximum(seen.sum(axis=1), 1)
-    return _RoadProfile(np.where(seen.sum(axis=1) >= 3, share, 0.0), s0, seen.sum(axis=1))
+    inside = (opt[:, 2] > 1.0) & (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
+    # a cell under or behind something (a car ahead, a parked row) is not seen either: what the
+    # camera sees at it, or HIDDEN_OVER above it, is nearer than the cell; nor is one where the
+    # matcher measured neither
+    over = frame.to_optical(np.column_stack([x.ravel(), y.ravel(), np.full(x.size, HIDDEN_OVER)]))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        up = frame.camera.project(over)
+    hidden = np.zeros(len(opt), bool)
+    holes = inside.copy()
+    for pts, at in ((opt, uv), (over, up)):
+        ok = inside & np.isfinite(at).all(axis=1) & (at[:, 0] >= 0) & (at[:, 0] < W) & (at[:, 1] >= 0) & (at[:, 1] < H)
+        iu, iv = (np.where(ok, at[:, k], 0).astype(np.int64) for k in (0, 1))
+        d = np.where(ok, frame.depth[iv, iu], np.inf)
+        hidden |= ok & (d < HIDDEN_NEARER * pts[:, 2])
+        holes &= ~np.isfinite(d)
+    visible = ((inside & ~hidden & ~holes).reshape(aa.shape) | occ[:, 6:31]).sum(axis=1)
+    share = occ[:, 6:31].sum(axis=1) / np.maximum(visible, 1)
+    # (a road hidden all along ends there: "unseen" is the image's edge, not a car's back)
+    return _RoadProfile(np.where(visible >= 3, share, 0.0), s0, inside.reshape(aa.shape).sum(axis=1))
 
 
 def _ego_path(camera, b: float, q: float):

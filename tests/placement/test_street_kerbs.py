@@ -73,3 +73,28 @@ def test_a_wider_strip_of_nothing_is_no_kerb():
     assert not _across_gutter(lab, road, side, depth, fx / 2).any()  # 1.6 GUTTER wide
     mirrored = [a[:, ::-1] for a in (lab, road, side, depth)]
     assert _across_gutter(*mirrored, fx)[0].nonzero()[0].tolist() == [30]
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_the_road_runs_on_under_and_behind_a_car_ahead(seed):
+    """leverkusen_000048: a car 5.5 m ahead in the ego vehicle's lane hides the right kerb, seen
+    only beside its back. Where no kerb line is found the carriageway ends where its road does;
+    the ground under and behind the car is hidden, not off the road, so the road runs on to the
+    kerb (it ended at the car's flank, 1 m right of the ego vehicle, leaving one lane over the
+    whole carriageway's left: the oncoming half)."""
+    from dataclasses import replace
+
+    from synthcompose.synthetic.layout import _car_boxes
+
+    scene = random_scene(np.random.default_rng([21, seed]), W, H, street="two-way")
+    a0, b0 = (float(np.ravel(v)[0]) for v in scene.to_street(np.array([scene.camera.x]), np.array([scene.camera.y])))
+    w0, w = scene.road_half_width, 3.6
+    car = _car_boxes(np.random.default_rng(seed), a0 + 7.7, b0 - 0.9, 0.0, 1, label_id("car") * 1000)
+    scene = replace(scene, road_half_width=w, sidewalk_width=scene.sidewalk_width + w0 - w, parking_lane=1.0,
+                    boxes=tuple(box for box in scene.boxes if box.label != "car") + tuple(car), poles=())
+    arrays = render_scene(scene)
+    frame = make_frame(disparity_to_depth(arrays["disparity"], scene.camera), arrays["label_ids"], scene.camera,
+                       photo=arrays["rgb"])
+    street = find_street(frame)
+    assert not any(line.kind == "kerb" and line.offset < 0 for line in street.lines)  # no kerb line on the right
+    assert abs(street.ego.right - street_offset(scene, frame, -w)) <= STREET_KERB_M
