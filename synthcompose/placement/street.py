@@ -15,8 +15,8 @@ points across it).
    over 6 m without a break, else *dashed*. Two thin lines 1.3-1.6 m apart along the road are
    tram rails, not lane lines.
 2. **Carriageways**: the ego carriageway between the nearest kerb line on each side (or where
-   its road ends: the ground under and behind a car is hidden, not off the road); beyond a kerb, another carriageway where road runs between two kerb lines
-   (a dual road's other half).
+   its road ends: the ground under and behind a car is hidden, not off the road); beyond a
+   kerb, another carriageway where road runs between two kerb lines (a dual road's other half).
 3. **Centre and direction** (``traffic.py`` for the lanes): the centre of a two-way
    carriageway is the lane marking left of the ego vehicle nearest to the middle between its
    kerbs, or that middle without one; with no marking left of the ego vehicle and the ego
