@@ -21,9 +21,10 @@ middle, whose left half comes towards us (the frame's own cars parked there face
 Its lanes beyond the ego vehicle's own lane on its left (right, for left-hand traffic) are
 ``untold``: no vehicle is put there, facing either way; the ego vehicle's own lane and those on
 its kerb's side go with it on either street. Its own lane reaches at most half a lane
-(``EGO_REACH``) to that side: a car ahead that hides the kerb, or a driver straddling a centre
-line the markings missed, leaves one wide "lane" whose far part is the oncoming half. A dual
-road's other half beyond the oncoming kerb tells the direction: none of this applies there.
+(``EGO_REACH``) to that side, and, as traffic keeps right (StVO 2 (2)), at most a lane's width
+from its kerb's side: a car ahead that hides the kerb, or a driver straddling a centre line the
+markings missed, leaves one wide "lane" whose far part is the oncoming half. A dual road's
+other half beyond the oncoming kerb tells the direction: none of this applies there.
 """
 from __future__ import annotations
 
@@ -179,8 +180,8 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     # a carriageway whose direction nothing tells: the ego vehicle's own lane reaches half a
     # lane to its oncoming side, and no farther (a two-way street's oncoming lane lies beyond)
     if cw.side == 0 and centre is None and not dual:
-        reach = ego_s + hand * EGO_REACH
-        out = [part for ln in out for part in (_split_at(ln, reach) if ln.right <= ego_s <= ln.left else [ln])]
+        out = [part for ln in out for part in (_split_at(ln, _ego_reach(ln, ego_s, hand))
+                                               if ln.right <= ego_s <= ln.left else [ln])]
     # the ego vehicle drives with its own lane (the moving lane nearest to it): where the
     # centre line found says otherwise, the centre is taken at the ego lane's far edge
     if cw.side == 0 and centre is not None:
@@ -192,6 +193,19 @@ def _carriageway_lanes(cw: Carriageway, k: int, hand: int, rows: dict, ego_s: fl
     roles = _untold(cw, out, ego_s, hand, dual)
     return [Lane(ln.right, ln.left, role, (1 if hand * (centre - ln.centre) > 0 else -1) if two_way
                  else sun_direction_of(cw, ln.centre, hand), k, ln.kerb) for ln, role in zip(out, roles)]
+
+
+def _ego_reach(lane: Lane, ego_s: float, hand: int) -> float:
+    """Where the ego vehicle's own ``lane`` ends on its oncoming side, on a carriageway whose
+    direction nothing tells: half a lane past the ego vehicle's path, and at most a lane's width
+    from its kerb's side (traffic keeps right, StVO 2 (2)), never within EGO_HALF_LANE of that
+    path."""
+    kerb_side = lane.right if hand > 0 else lane.left
+    keep = kerb_side + hand * LANE_WIDTH
+    near = ego_s + hand * EGO_HALF_LANE
+    edge = max(keep, near) if hand > 0 else min(keep, near)
+    reach = ego_s + hand * EGO_REACH
+    return min(edge, reach) if hand > 0 else max(edge, reach)
 
 
 def _untold(cw: Carriageway, out: list[Lane], ego_s: float, hand: int, dual: bool = False) -> list[str]:

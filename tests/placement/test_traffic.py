@@ -237,13 +237,14 @@ def test_left_hand_traffic_mirrors_the_directions():
     assert [lane.direction for lane in _carriageway_lanes(left_hand, 0, -1, {})] == [-1, 1]
 
 
-def test_where_nothing_tells_the_direction_the_ego_lane_reaches_half_a_lane_to_the_oncoming_side():
+def test_where_nothing_tells_the_direction_the_ego_lane_keeps_right_and_reaches_half_a_lane_past_it():
     """leverkusen_000048: a car ahead hides the right kerb and the ego vehicle straddles a centre
     line the markings missed; the carriageway left is one 4 m "lane" from the car ahead to a
     strip along the verge, whose left part is the oncoming half (a real car comes towards us
     there). Where nothing tells the direction, the ego vehicle's lane reaches half a lane to the
-    oncoming side and the rest is ``untold``; left-hand traffic mirrors it; a dual road's other
-    half beyond the oncoming kerb tells the direction, and the lane is whole."""
+    oncoming side and the rest is ``untold``; traffic keeps right, so it is at most a lane wide
+    from its kerb's side; left-hand traffic mirrors it; a dual road's other half beyond the
+    oncoming kerb tells the direction, and the lane is whole."""
     strip = StreetLine(2.98, "dashed", 9.0, 20.0, 4.0)
     cw = Carriageway(-1.0, 3.55, (strip,), None, 0, "one-way")
     got = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(cw, 0, 1, {}, ego_s=-0.04)]
@@ -253,6 +254,10 @@ def test_where_nothing_tells_the_direction_the_ego_lane_reaches_half_a_lane_to_t
     got = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(mirrored, 0, -1, {}, ego_s=0.04)]
     assert got == [("none", -3.55, -2.98), ("untold", -2.98, pytest.approx(-1.835)),
                    ("moving", pytest.approx(-1.835), 1.0)]
+    # traffic keeps right: the lane is at most a lane's width (3.75 m) from its kerb's side
+    wide = Carriageway(-2.5, 3.55, (strip,), None, 0, "one-way")
+    got = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(wide, 0, 1, {}, ego_s=-0.04)]
+    assert got[0] == ("moving", -2.5, pytest.approx(1.25)) and got[1][0] == "untold"
     dual = [(ln.role, ln.right, ln.left) for ln in _carriageway_lanes(cw, 0, 1, {}, ego_s=-0.04, dual=True)]
     assert dual == [("moving", -1.0, 2.98), ("none", 2.98, 3.55)]
     # a lane that reaches less than half a lane and a little to the ego vehicle's left is whole
