@@ -37,6 +37,9 @@ from ..tolerances import (
 )
 
 W, H = 640, 320
+#: a place on the generated street's left footway, 7 m left of the camera (vehicle frame y, metres):
+#: the sample's road reaches about 5 m to each side
+OFF_ROAD_Y = 7.0
 
 
 @pytest.fixture(scope="module")
@@ -163,7 +166,8 @@ def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_
     with _loaded(m, ids[0].name) as s:
         assert s.view.verdict.ok and str(s.view.verdict) == "placement OK"  # the batch accepted it
         start = s.view.objects[0].placement.matrix
-        s.move(dy=4.0)  # 4 m to the left: off the road, onto the sidewalk
+        away = OFF_ROAD_Y - start[1, 3]
+        s.move(dy=away)  # to the left, off the road: onto the sidewalk
         verdict = s.view.verdict
         assert not verdict.ok
         i, name, why = verdict.failures[0]
@@ -173,7 +177,7 @@ def test_moved_pose_gets_the_placement_rules_verdict_and_save_refuses_a_failing_
         with pytest.raises(PlacementRefused, match=f"not saved: .*{why.rule}.*Shift\\+S"):
             s.save()
         assert not s.placement_file.exists()
-        s.move(dy=-4.0)  # back where it was: the rules hold again
+        s.move(dy=-away)  # back where it was: the rules hold again
         assert s.view.verdict.ok, str(s.view.verdict)
         assert np.allclose(s.view.objects[0].placement.matrix[:2, 3], start[:2, 3], atol=PREVIEW_MOVE_M)
         path = s.save()
@@ -198,7 +202,7 @@ def test_batch_records_that_a_force_saved_pose_breaks_a_rule(dataset, manifest):
     root, ids = dataset
     m = load_manifest(manifest)
     with _loaded(m, ids[0].name) as s:
-        s.move(dy=4.0)  # off the road
+        s.move(dy=OFF_ROAD_Y - s.view.objects[0].placement.matrix[1, 3])  # off the road
         why = s.view.verdict.failures[0][2]
         s.save(force=True)  # Shift+S
     assert main(["batch", str(manifest), "--no-progress"]) == 0
@@ -297,15 +301,17 @@ got["view_zoom"], got["orbit3"] = read(), orbit()
 key(glfw.KEY_V)
 # save with the keys: refused off the road, Shift+S saves anyway, back on the road S saves
 path = w.session.placement_file
-for _ in range(4):
-    key(glfw.KEY_LEFT, glfw.MOD_SHIFT)  # 1 m to the left each
+steps = 0
+while w.session.view.verdict.ok and steps < 12:  # 1 m to the left each, until off the road
+    key(glfw.KEY_LEFT, glfw.MOD_SHIFT)
+    steps += 1
 got["verdict_moved"], got["title_moved"] = str(w.session.view.verdict), w.title
 key(glfw.KEY_S)
 got["refused_message"], got["refused_exists"] = w.message, path.exists()
 got["refused_overlay"] = [t for t, _ in w.overlay().lines]
 key(glfw.KEY_S, glfw.MOD_SHIFT)
 got["anyway_message"], got["anyway_exists"] = w.message, path.exists()
-for _ in range(4):
+for _ in range(steps):
     key(glfw.KEY_RIGHT, glfw.MOD_SHIFT)
 got["verdict_back"] = str(w.session.view.verdict)
 key(glfw.KEY_S)
