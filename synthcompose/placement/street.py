@@ -232,7 +232,11 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     with np.errstate(invalid="ignore", divide="ignore"):
         uv = frame.camera.project(opt)
     H, W = frame.shape
-    inside = (opt[:, 2] > 1.0) & (uv[:, 0] >= 0) & (uv[:, 0] < W) & (uv[:, 1] >= 0) & (uv[:, 1] < H)
+
+    def in_image(at: np.ndarray) -> np.ndarray:
+        return np.isfinite(at).all(axis=1) & (at[:, 0] >= 0) & (at[:, 0] < W) & (at[:, 1] >= 0) & (at[:, 1] < H)
+
+    inside = (opt[:, 2] > 1.0) & in_image(uv)
     # a cell under or behind something (a car ahead, a parked row) is not seen either: what the
     # camera sees at it, or HIDDEN_OVER above it, is nearer than the cell; nor is one where the
     # matcher measured neither
@@ -242,7 +246,7 @@ def _road_profile(frame: Frame, b: float, q: float) -> _RoadProfile:
     hidden = np.zeros(len(opt), bool)
     holes = inside.copy()
     for pts, at in ((opt, uv), (over, up)):
-        ok = inside & np.isfinite(at).all(axis=1) & (at[:, 0] >= 0) & (at[:, 0] < W) & (at[:, 1] >= 0) & (at[:, 1] < H)
+        ok = inside & in_image(at)
         iu, iv = (np.where(ok, at[:, k], 0).astype(np.int64) for k in (0, 1))
         d = np.where(ok, frame.depth[iv, iu], np.inf)
         hidden |= ok & (d < HIDDEN_NEARER * pts[:, 2])
