@@ -45,13 +45,34 @@ PngKind = Literal["rgb8", "gray8", "gray16"]
 T, R = TypeVar("T"), TypeVar("R")
 
 
+#: threads that code an image set's files side by side (:func:`map_threads`); None: as many as
+#: OpenCV may use. Set apart from OpenCV's own pool by :func:`codec_threads`.
+_CODEC_THREADS: int | None = None
+
+
+def codec_threads(n: int | None) -> int | None:
+    """Code an image set's files on ``n`` threads from now on (None: as many as OpenCV may use,
+    ``cv2.getNumThreads``); returns the setting it replaces. A batch runs OpenCV's own functions
+    on one thread (its pool's threads spin while they wait: CPU-seconds for no image) and still
+    codes its PNGs side by side (:meth:`synthcompose.run.pipeline.Pipeline.stream`)."""
+    global _CODEC_THREADS
+    previous, _CODEC_THREADS = _CODEC_THREADS, (None if n is None else max(1, int(n)))
+    return previous
+
+
+def codec_thread_count() -> int:
+    """The threads :func:`map_threads` codes files on now (at least 1)."""
+    return max(1, cv2.getNumThreads() if _CODEC_THREADS is None else _CODEC_THREADS)
+
+
 def map_threads(fn: Callable[[T], R], items: Iterable[T]) -> list[R]:
-    """``[fn(x) for x in items]`` on as many threads as OpenCV may use (``cv2.setNumThreads``:
-    all cores, or a worker's share of them). PNG decoding and encoding release the GIL, so an
-    image set's files are coded side by side. Results in order; the first failing item's
-    exception (in order) is raised, as a plain loop would."""
+    """``[fn(x) for x in items]`` on the codec's threads (:func:`codec_threads`; by default as
+    many as OpenCV may use, ``cv2.setNumThreads``: all cores, or a worker's share of them). PNG
+    decoding and encoding release the GIL, so an image set's files are coded side by side.
+    Results in order; the first failing item's exception (in order) is raised, as a plain loop
+    would."""
     items = list(items)
-    n = min(max(1, cv2.getNumThreads()), len(items))
+    n = min(codec_thread_count(), len(items))
     if n <= 1:
         return [fn(x) for x in items]
     with ThreadPoolExecutor(n, thread_name_prefix="synthcompose-io") as pool:

@@ -20,15 +20,18 @@ from __future__ import annotations
 
 import logging
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable, Iterable, Iterator
 
+import cv2
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from synthcompose.compose import Composer
 from synthcompose.errors import SynthComposeError
 from synthcompose.io.dataset import ImageSetId
+from synthcompose.io.files import codec_threads
 from synthcompose.manifest import Manifest
 from synthcompose.placement.frequency import object_weights
 from synthcompose.placement.saved_poses import read_saved
@@ -69,6 +72,26 @@ def _guarded(ident: ImageSetId, timings: Timings, step: Callable):
     except Exception as exc:  # a bug must not take the rest of the batch down
         log.debug("internal error on %s", ident.key, exc_info=True)
         return Outcome(ident.key, Status.FAILED, f"internal error: {type(exc).__name__}: {exc}", timings=timings.seconds())
+
+
+@contextmanager
+def opencv_on_one_thread():
+    """OpenCV's own functions on one thread, the PNG codec's files still side by side on the
+    threads OpenCV had (:func:`~synthcompose.io.files.codec_threads`); restored after.
+
+    In a batch the cores are kept busy by the stream's three threads and by the other workers;
+    OpenCV's pool only adds its threads' waiting: they spin before they sleep, and on a 2048x1024
+    label image a morphology or a connected-components call is split into pieces shorter than
+    that spin. On 2 cores the stages' CPU-seconds per image set fell by a tenth (placement and
+    light measure), the images the same bytes (``benchmarks/bench_cost.py``)."""
+    threads = cv2.getNumThreads()
+    previous = codec_threads(threads)
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(threads)
+        codec_threads(previous)
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,7 +166,7 @@ class Pipeline:
         # BLAS thread pools on top of these threads only contend: our matrices are skinny
         # ((N, 3) by (3, 3)), and OpenBLAS threads spin while waiting - with a pool per process
         # an (N, 3) product took 196 ms instead of 11 on this machine's two busy cores
-        with threadpool_limits(limits=1, user_api="blas"), \
+        with threadpool_limits(limits=1, user_api="blas"), opencv_on_one_thread(), \
                 ThreadPoolExecutor(1, "synthcompose-prepare") as preparer, \
                 ThreadPoolExecutor(1, "synthcompose-write") as writer:
             preparing = preparer.submit(prepare_next)

@@ -190,9 +190,11 @@ def test_bad_manifest_names_the_field(tmp_path, capsys, change, field):
 def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, monkeypatch):
     """Pipeline.stream (read ahead, write behind, on threads) gives the outcomes in order and
     the same bytes as processing each image set alone; a read failure and a write failure
-    fail only their own image set."""
+    fail only their own image set. While it streams, OpenCV's own functions run on one thread
+    and the PNG codec on the threads OpenCV had; both are restored after."""
     from threadpoolctl import threadpool_info
 
+    from synthcompose.io.files import codec_thread_count
     from synthcompose.manifest import load_manifest
     from synthcompose.run.pipeline import Pipeline
     from synthcompose.stages import write as write_stage
@@ -200,16 +202,24 @@ def test_stream_overlapping_reads_and_writes_matches_one_at_a_time(tmp_path, mon
     root = tmp_path / "cs"
     ids = make_sample(root, count=4, width=W, height=H, seed=9)
     _break(root, ids[1], "missing")
-    outs, blas = {}, []
+    outs, blas, opencv = {}, [], []
 
-    def begin(ident) -> None:  # NumPy's BLAS on one thread while streaming
+    def begin(ident) -> None:  # NumPy's BLAS and OpenCV on one thread while streaming, the codec on 3
         blas.extend(pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas")
+        opencv.append((cv2.getNumThreads(), codec_thread_count()))
 
-    for way in ("alone", "stream"):
-        manifest = load_manifest(write_manifest(tmp_path / f"{way}.json", root, tmp_path / way))
-        with Pipeline(manifest) as pipe:
-            outs[way] = [pipe.process(i) for i in ids] if way == "alone" else list(pipe.stream(ids, on_begin=begin))
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(3)
+    try:
+        for way in ("alone", "stream"):
+            manifest = load_manifest(write_manifest(tmp_path / f"{way}.json", root, tmp_path / way))
+            with Pipeline(manifest) as pipe:
+                outs[way] = [pipe.process(i) for i in ids] if way == "alone" else list(pipe.stream(ids, on_begin=begin))
+        assert (cv2.getNumThreads(), codec_thread_count()) == (3, 3)
+    finally:
+        cv2.setNumThreads(threads)
     assert blas and set(blas) == {1}
+    assert opencv and set(opencv) == {(1, 3)}
     assert [o.key for o in outs["stream"]] == [i.key for i in ids]
     assert [o.status for o in outs["stream"]] == [o.status for o in outs["alone"]]
     assert outs["stream"][1].status == "failed" and "file is missing" in outs["stream"][1].reason
