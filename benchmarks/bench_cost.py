@@ -18,10 +18,10 @@ with --real, on real Cityscapes roots:
   removed by a 1-set batch of the same manifest, and with it;
 * per stage, CPU-seconds per set: the stages one after the other in this process
   (``Pipeline.process``, OpenCV's own functions on one thread as in the batch's stream), each
-  charged the process's CPU (every thread: llvmpipe's too) spent while it ran; the GL passes (``Renderer.render``, ``Composer.compose_roi``, reading and
-  releasing passes) apart, for the left view and the right view (stage ``right``); "CPU side"
-  is every stage less its GL passes (read, geometry, placement, light, camera match, tones,
-  annotations, polygons, write);
+  charged the process's CPU (every thread: llvmpipe's too) spent while it ran; the GL passes
+  (``Renderer.render``, ``Composer.compose_roi``, reading and releasing passes) apart, for the
+  left view and the right view (stage ``right``); "CPU side" is every stage less its GL passes
+  (read, geometry, placement, light, camera match, tones, annotations, polygons, write);
 * for each worker count: wall time per set, wall against CPU / cores, peak RSS per worker;
 * with --scale, CPU per set and peak RSS for each batch size (flat per set: no growth);
 * with --baseline, all of that for another checkout's code too (e.g. ``git worktree add <dir>
