@@ -63,17 +63,21 @@ def occluder_fill(depth: np.ndarray, ground: np.ndarray | None = None) -> tuple[
     if valid.all():
         return depth, ground
     left, right = nearest_in_row(valid)
-    rows = np.arange(h)[:, None]
-    padded = np.concatenate([depth, np.full((h, 1), np.inf, depth.dtype)], axis=1)  # column w (and -1): inf
-    lcol = np.where(left < 0, w, left)
-    from_left = padded[rows, lcol] >= padded[rows, right]
-    farther = np.where(from_left, padded[rows, lcol], padded[rows, right])
-    filled = np.where(valid, depth, farther).astype(np.float32)
+    r, c = np.nonzero(~valid)  # the holes alone (a tenth of a real frame): their neighbours' values
+    lc, rc = left[r, c], right[r, c]
+    inf = np.asarray(np.inf, depth.dtype)
+    from_l = np.where(lc >= 0, depth[r, np.maximum(lc, 0)], inf)  # none on a side: inf
+    from_r = np.where(rc < w, depth[r, np.minimum(rc, w - 1)], inf)
+    from_left = from_l >= from_r
+    farther = np.where(from_left, from_l, from_r)
+    filled = depth.astype(np.float32)  # a copy
+    filled[r, c] = farther
     if ground is None:
         return filled, None
-    gpad = np.concatenate([ground, np.zeros((h, 1), bool)], axis=1)
-    source = np.where(from_left, gpad[rows, lcol], gpad[rows, right])
-    return filled, ground | (~valid & np.isfinite(farther) & source)
+    source = np.where(from_left, (lc >= 0) & ground[r, np.maximum(lc, 0)], (rc < w) & ground[r, np.minimum(rc, w - 1)])
+    out = ground.copy()
+    out[r, c] |= np.isfinite(farther) & source
+    return filled, out
 
 
 def depth_to_disparity(depth: np.ndarray, camera: Camera) -> np.ndarray:

@@ -94,18 +94,20 @@ def _across_gutter(lab: np.ndarray, road: np.ndarray, side: np.ndarray, depth: n
     a strip of nothing (label 0) at most :data:`GUTTER` metres wide (``fx``: the focal length in
     these pixels): on frames without labels a kerb's stones, and a gutter under leaves, are often
     found as neither road nor footway."""
-    def rightwards(lab, road, side, depth):
-        H, W = lab.shape
-        void = lab == 0
-        _, first = nearest_in_row(~void)  # the first found pixel at or right of each pixel
-        cols = np.minimum(np.arange(W) + 1, W - 1)
-        beyond = np.minimum(first[:, cols], W - 1)  # past the void that starts next to it
+    H, W = lab.shape
+    void = lab == 0
+    left, right = nearest_in_row(~void)  # the nearest found pixel at or left / right of each pixel
+    out = np.zeros((H, W), bool)
+    for step, nearest in ((1, right), (-1, left)):  # rightwards, then leftwards
+        # road pixels whose neighbour on that side is void (at the frame's edge: itself, not void)
+        nxt = np.clip(np.arange(W) + step, 0, W - 1)
+        r, c = np.nonzero(road & void[:, nxt])
+        # the first found pixel past the void (none found: the frame's last column on that side)
+        beyond = np.clip(nearest[r, nxt[c]], 0, W - 1)
         with np.errstate(invalid="ignore"):
-            narrow = (beyond - np.arange(W)) * depth / fx <= GUTTER
-        return road & void[:, cols] & side[np.arange(H)[:, None], beyond] & narrow
-
-    flip = [a[:, ::-1] for a in (lab, road, side, depth)]
-    return rightwards(lab, road, side, depth) | rightwards(*flip)[:, ::-1]
+            narrow = np.abs(beyond - c) * depth[r, c] / fx <= GUTTER
+        out[r, c] |= side[r, beyond] & narrow
+    return out
 
 
 def _ransac_line(pts: np.ndarray, rng: np.random.Generator, iterations: int, band: float,

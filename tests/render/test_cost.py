@@ -139,3 +139,83 @@ def test_banded_render_keeps_coverage_and_ids_and_the_shading_to_rounding(gl_cle
     for name in ("irpv", "ir", "objc", "odepth", "plane"):
         diff = np.abs(whole[name] - banded[name])
         assert np.quantile(diff, 0.999) <= 1e-3 and diff.max() <= 0.5, (name, diff.max())
+
+
+def _reference_occluder_fill(depth: np.ndarray, ground: np.ndarray | None):
+    """occluder_fill as it was written over the whole frame (before it read the holes alone)."""
+    from synthcompose.geometry.depth import nearest_in_row
+
+    h, w = depth.shape
+    valid = np.isfinite(depth)
+    if valid.all():
+        return depth, ground
+    left, right = nearest_in_row(valid)
+    rows = np.arange(h)[:, None]
+    padded = np.concatenate([depth, np.full((h, 1), np.inf, depth.dtype)], axis=1)
+    lcol = np.where(left < 0, w, left)
+    from_left = padded[rows, lcol] >= padded[rows, right]
+    farther = np.where(from_left, padded[rows, lcol], padded[rows, right])
+    filled = np.where(valid, depth, farther).astype(np.float32)
+    if ground is None:
+        return filled, None
+    gpad = np.concatenate([ground, np.zeros((h, 1), bool)], axis=1)
+    source = np.where(from_left, gpad[rows, lcol], gpad[rows, right])
+    return filled, ground | (~valid & np.isfinite(farther) & source)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_occluder_fill_of_the_holes_alone_gives_the_whole_frame_ones(dtype):
+    from synthcompose.geometry.depth import occluder_fill
+
+    rng = np.random.default_rng(3)
+    for holes in (0.0, 0.1, 0.5, 0.97, 1.0):
+        depth = rng.uniform(1, 80, (60, 90)).astype(dtype)
+        depth[rng.random(depth.shape) < holes] = np.inf
+        depth[7] = np.inf  # a row with nothing known
+        depth[9, :40] = np.nan
+        ground = rng.random(depth.shape) < 0.4
+        for g in (None, ground):
+            got, want = occluder_fill(depth, g), _reference_occluder_fill(depth, g)
+            assert got[0].dtype == want[0].dtype and np.array_equal(got[0], want[0]), holes
+            assert (got[1] is None) == (want[1] is None)
+            if g is not None:
+                assert np.array_equal(got[1], want[1]), holes
+
+
+def _reference_across_gutter(lab, road, side, depth, fx):
+    """road._across_gutter as it was written: each direction over the whole frame, the
+    leftwards one on the flipped arrays."""
+    from synthcompose.geometry.depth import nearest_in_row
+    from synthcompose.placement.road import GUTTER
+
+    def rightwards(lab, road, side, depth):
+        H, W = lab.shape
+        void = lab == 0
+        _, first = nearest_in_row(~void)
+        cols = np.minimum(np.arange(W) + 1, W - 1)
+        beyond = np.minimum(first[:, cols], W - 1)
+        with np.errstate(invalid="ignore"):
+            narrow = (beyond - np.arange(W)) * depth / fx <= GUTTER
+        return road & void[:, cols] & side[np.arange(H)[:, None], beyond] & narrow
+
+    flip = [a[:, ::-1] for a in (lab, road, side, depth)]
+    return rightwards(lab, road, side, depth) | rightwards(*flip)[:, ::-1]
+
+
+def test_across_gutter_of_the_candidates_alone_gives_the_whole_frame_ones():
+    from synthcompose.placement.road import _across_gutter
+
+    rng = np.random.default_rng(8)
+    for void_share in (0.05, 0.3, 0.7):
+        lab = rng.choice(np.array([7, 8, 21], np.uint8), (40, 120))
+        lab[rng.random(lab.shape) < void_share] = 0
+        lab[5, 3:60] = 0  # long voids, one to the frame's edge
+        lab[6, 70:] = 0
+        lab[:, 0] = 7  # road at the edges
+        lab[:, -1] = 7
+        road, side = lab == 7, lab == 8
+        depth = rng.uniform(2, 60, lab.shape).astype(np.float32)
+        depth[rng.random(lab.shape) < 0.1] = np.inf
+        for fx in (200.0, 1100.0):
+            got = _across_gutter(lab, road, side, depth, fx)
+            assert got.any() and np.array_equal(got, _reference_across_gutter(lab, road, side, depth, fx))
