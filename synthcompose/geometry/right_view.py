@@ -46,22 +46,24 @@ def carry_to_right(depth: np.ndarray, camera: Camera, rows: slice, cols: slice,
         return out
     src = depth[r0:r1, c0:]  # disparity >= 0: a right pixel is seen by a left one at or right of it
     h, w = src.shape
+    cw = c1 - c0
     # disparity, 0 at infinite depth; the right column within the block
     d = np.where(np.isfinite(src) & (src > 0), camera.fx * camera.baseline / np.maximum(src, 1e-6), 0.0)
     target = np.rint(np.arange(w, dtype=np.float64)[None, :] - d).astype(np.int64)
-    ok = (target >= 0) & (target < c1 - c0)
+    at = np.flatnonzero((target >= 0) & (target < cw))  # the source pixels (flat) that land in the block
     # nearest surface wins: the largest disparity, then the source's flat index
-    flat = np.arange(h * w, dtype=np.int64).reshape(h, w)
-    key = (np.rint(d * _STEPS).astype(np.int64) << 32) | flat
-    best = np.full(h * (c1 - c0), -1, np.int64)
-    rr = np.broadcast_to(np.arange(h)[:, None], (h, w))
-    np.maximum.at(best, rr[ok] * (c1 - c0) + target[ok], key[ok])
-    best = best.reshape(h, c1 - c0)
+    key = (np.rint(d.ravel()[at] * _STEPS).astype(np.int64) << 32) | at
+    del d
+    best = np.full(h * cw, -1, np.int64)
+    np.maximum.at(best, at // w * cw + target.ravel()[at], key)
+    del target, at, key
+    best = best.reshape(h, cw)
     reached = best >= 0
-    source = np.where(reached, best & 0xFFFFFFFF, 0)
+    source = best & 0xFFFFFFFF  # the source's flat index (unreached: 0)
+    source[~reached] = 0
+    del best
     # unreached pixels: the farther of the nearest reached ones along the row
     left, right = nearest_in_row(reached)
-    cw = c1 - c0
     rows_ = np.arange(h)[:, None]
     src_depth = src.ravel()
     zl = np.where(left >= 0, src_depth[source[rows_, np.maximum(left, 0)]], -np.inf)

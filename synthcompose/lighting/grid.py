@@ -34,7 +34,7 @@ def _cell_reduce(a: np.ndarray, f: int, op) -> np.ndarray:
     # the kernel's anchor (f // 2) puts cell (i, j)'s pixels exactly under output i*f + f//2
     out = op(np.ascontiguousarray(a[: h * f, : w * f]), np.ones((f, f), np.uint8),
              borderType=cv2.BORDER_REPLICATE)
-    return out[f // 2:: f, f // 2:: f][:h, :w]
+    return out[f // 2:: f, f // 2:: f][:h, :w].copy()  # not a view that keeps the whole frame's array
 
 
 def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:

@@ -97,6 +97,23 @@ def _points(depth: np.ndarray, camera: Camera) -> np.ndarray:
     return np.stack([m[i, 0] * x + m[i, 1] * y + m[i, 2] * z + m[i, 3] for i in range(3)], axis=-1)
 
 
+def linear_at(rgb: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``cv2.remap(cv2.LUT(rgb, LEVEL_LUT), u, v)`` (bilinear, 0 outside) with the linear levels
+    made only for the rows and columns the samples read: the same values (a whole number of
+    pixels off changes no sample's weights), without the frame's (H, W, 3) float32 (24 MB)."""
+    H, W = rgb.shape[:2]
+    reach = (u > -1) & (u < W) & (v > -1) & (v < H)  # samples that read a pixel of the photo
+    x0 = x1 = y0 = y1 = 0
+    if reach.any():  # each reads its pixel and the next; one more on each side for rounding
+        x0, x1 = max(int(np.floor(u[reach].min())) - 1, 0), min(int(u[reach].max()) + 3, W)
+        y0, y1 = max(int(np.floor(v[reach].min())) - 1, 0), min(int(v[reach].max()) + 3, H)
+    if x1 <= x0 or y1 <= y0:  # none: every sample is 0
+        return np.zeros(u.shape + (3,), np.float32)
+    levels = cv2.LUT(rgb[y0:y1, x0:x1], LEVEL_LUT)
+    return cv2.remap(levels, u - np.float32(x0), v - np.float32(y0), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
 def fit_road_plane(points: np.ndarray, labels: np.ndarray, camera: Camera) -> tuple[float, float, float]:
     """(a, b, c): the plane z = a + b (x - x_c) + c (y - y_c) through the ground points 4-25 m
     away (labels ``labels`` in :data:`GROUND_IDS`; road preferred), robustly (the road, not the
@@ -159,7 +176,7 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     v = (camera.fy * o[1] / zo + camera.v0).astype(np.float32)
     inside = np.isfinite(u) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
     u, v = np.where(inside, u, -10.0).astype(np.float32), np.where(inside, v, -10.0).astype(np.float32)
-    lin = cv2.remap(cv2.LUT(rgb, LEVEL_LUT), u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    lin = linear_at(rgb, u, v)
     seen = cv2.remap(depth.astype(np.float32), u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
                      borderValue=float("nan"))
     plane_lab = cv2.remap(label_ids, u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)

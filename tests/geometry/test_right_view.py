@@ -73,6 +73,51 @@ def test_carried_depth_moves_near_surfaces_and_fills_what_the_left_camera_does_n
     assert (part["depth"][2:6, 10:20] == 20.0).all()
 
 
+def _carried_pixel_by_pixel(depth, cam, r0, r1, c0, c1, layer, keep):
+    """carry_to_right's rules read one right pixel at a time (the test's reference)."""
+    fb = cam.fx * cam.baseline
+    H, W = depth.shape
+    z_out = np.full((H, W), np.inf, np.float32)
+    l_out = np.zeros((H, W), layer.dtype)
+    for r in range(r0, r1):
+        landed = {}  # right column -> (disparity step, source column) of the nearest surface
+        for c in range(c0, W):
+            z = depth[r, c]
+            d = fb / max(float(z), 1e-6) if np.isfinite(z) and z > 0 else 0.0
+            t = c0 + int(np.rint((c - c0) - d))  # rounded in the block's columns (half to even)
+            if c0 <= t < c1:
+                landed[t] = max(landed.get(t, (-1, -1)), (int(np.rint(d * 256)), c))
+        for t in range(c0, c1):
+            if t in landed:
+                src = landed[t][1]
+            else:  # the farther of the nearest landed ones along the row
+                lefts = [k for k in landed if k < t]
+                rights = [k for k in landed if k > t]
+                if not lefts and not rights:
+                    continue
+                zl = depth[r, landed[max(lefts)][1]] if lefts else -np.inf
+                zr = depth[r, landed[min(rights)][1]] if rights else -np.inf
+                src = landed[max(lefts)][1] if zl >= zr else landed[min(rights)][1]
+            z_out[r, t] = depth[r, src]
+            l_out[r, t] = layer[r, t] if keep[r, t] else layer[r, src]
+    return z_out, l_out
+
+
+def test_carried_layers_follow_the_rules_pixel_by_pixel():
+    """Random depths with holes and near surfaces: the carried depth and labels are those of the
+    rules read one pixel at a time (the nearest surface landing on a pixel, the farther of the
+    nearest landed ones where none does, labels of the image kept in place)."""
+    cam = _camera(48, 12)
+    rng = np.random.default_rng(11)
+    depth = rng.choice(np.array([0.6, 1.5, 4.0, 30.0, np.inf], np.float32), (12, 48), p=[0.1, 0.2, 0.2, 0.4, 0.1])
+    labels = rng.integers(1, 30, depth.shape).astype(np.uint8)
+    keep = rng.random(depth.shape) < 0.1
+    for r0, r1, c0, c1 in ((0, 12, 0, 48), (2, 9, 7, 30), (5, 6, 40, 48)):
+        out = carry_to_right(depth, cam, slice(r0, r1), slice(c0, c1), {"labels": labels}, keep=keep)
+        z, lab = _carried_pixel_by_pixel(depth, cam, r0, r1, c0, c1, labels, keep)
+        assert np.array_equal(out["depth"], z) and np.array_equal(out["labels"], lab), (r0, r1, c0, c1)
+
+
 def test_generated_right_photo_is_the_scene_from_the_right_camera():
     scene = random_scene(np.random.default_rng([4, 0]), 512, 256)
     both = render_scene(scene, stereo="exact", right=True)

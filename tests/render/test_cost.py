@@ -219,3 +219,20 @@ def test_across_gutter_of_the_candidates_alone_gives_the_whole_frame_ones():
         for fx in (200.0, 1100.0):
             got = _across_gutter(lab, road, side, depth, fx)
             assert got.any() and np.array_equal(got, _reference_across_gutter(lab, road, side, depth, fx))
+
+
+def test_linear_levels_of_the_rows_and_columns_sampled_give_the_whole_frames():
+    from synthcompose.lighting.light import LEVEL_LUT
+    from synthcompose.lighting.plan import linear_at
+
+    rng = np.random.default_rng(4)
+    rgb = rng.integers(0, 256, (120, 200, 3), np.uint8)
+    whole = cv2.LUT(rgb, LEVEL_LUT)
+    for lo, hi in (((10, 5), (60, 40)), ((-3, -2), (203, 122)), ((150, 90), (199, 119)), ((-30, -30), (-5, -5))):
+        u = rng.uniform(lo[0], hi[0], (37, 23)).astype(np.float32)
+        v = rng.uniform(lo[1], hi[1], (37, 23)).astype(np.float32)
+        u[0, :5], v[0, :5] = [0, 199, 199.0, 0.5, 198.999], [0, 119, 0.25, 119, 118.999]
+        u[1, :3] = -10.0
+        u[2, :4] = np.round(u[2, :4]) + np.float32(1 / 64)  # near the fixed-point steps
+        want = cv2.remap(whole, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        assert np.array_equal(linear_at(rgb, u, v), want), (lo, hi)
