@@ -23,6 +23,7 @@ Polygons are lists of ``[x, y]`` integer pixel centres (column, row).
 """
 from __future__ import annotations
 
+import heapq
 from collections import defaultdict
 from typing import Any, Sequence
 
@@ -243,8 +244,8 @@ def _drawing_order(entries: list[dict[str, Any]], owner: np.ndarray, chains: lis
     """
     n = len(entries)
     succ: list[dict[int, int]] = [dict() for _ in range(n)]  # a -> {b: pixels of b that a covers}
-    soft = np.zeros(n)  # pixels of each entry covered by entries not yet placed
-    hard = np.zeros(n, np.int64)  # instances of its class with a lower id not yet placed
+    soft = [0] * n  # pixels of each entry covered by entries not yet placed
+    hard = [0] * n  # instances of its class with a lower id not yet placed
     for a, e in enumerate(entries):
         x, y, w, h = e["box"]
         counts = np.bincount(owner[y:y + h, x:x + w][e["drawn"]] + 1, minlength=n + 1)[1:]  # -1: no entry
@@ -257,18 +258,29 @@ def _drawing_order(entries: list[dict[str, Any]], owner: np.ndarray, chains: lis
         for a, b in zip(chain, chain[1:]):
             after[a] = b
             hard[b] += 1
-    area = np.array([e["area"] for e in entries], np.float64)
+    area = [int(e["area"]) for e in entries]
     # background regions nothing draws over need no entry: the drawing starts from it
-    left = np.array([not (e.get("background") and soft[i] == 0) for i, e in enumerate(entries)])
+    left = [not (e.get("background") and soft[i] == 0) for i, e in enumerate(entries)]
+    # the first of: no lower id waiting, fewest pixels that a later entry would cover, larger
+    # area, lower index; a heap of those keys, an entry pushed again whenever its key falls
+    # (keys only fall) and a popped key that is no longer the entry's own passed over
+    key = lambda i: (hard[i] > 0, soft[i], -area[i], i)  # noqa: E731
+    heap = [key(i) for i in range(n) if left[i]]
+    heapq.heapify(heap)
     order: list[int] = []
-    for _ in range(int(left.sum())):
-        idx = np.flatnonzero(left)
-        # the first of: no lower id waiting, fewest pixels that a later entry would cover, larger area
-        best = int(idx[np.lexsort((idx, -area[idx], soft[idx], hard[idx] > 0))[0]])
+    while heap:
+        top = heapq.heappop(heap)
+        best = top[3]
+        if not left[best] or top != key(best):
+            continue
         order.append(best)
         left[best] = False
         for b, c in succ[best].items():
             soft[b] -= c
+            if left[b]:
+                heapq.heappush(heap, key(b))
         if best in after:
             hard[after[best]] -= 1
+            if left[after[best]]:
+                heapq.heappush(heap, key(after[best]))
     return order
