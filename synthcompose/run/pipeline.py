@@ -82,8 +82,8 @@ def opencv_on_one_thread():
     In a batch the cores are kept busy by the stream's three threads and by the other workers;
     OpenCV's pool only adds its threads' waiting: they spin before they sleep, and on a 2048x1024
     label image a morphology or a connected-components call is split into pieces shorter than
-    that spin. On 2 cores the stages' CPU-seconds per image set fell by a tenth (placement and
-    light measure), the images the same bytes (``benchmarks/bench_cost.py``)."""
+    that spin. On 2 cores placement's and the light measure's CPU-seconds per image set fell by
+    about a tenth and the batch's by 3 %, the images the same bytes (docs/performance.md)."""
     threads = cv2.getNumThreads()
     previous = codec_threads(threads)
     cv2.setNumThreads(1)
