@@ -103,12 +103,11 @@ def linear_at(rgb: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     pixels off changes no sample's weights), without the frame's (H, W, 3) float32 (24 MB)."""
     H, W = rgb.shape[:2]
     reach = (u > -1) & (u < W) & (v > -1) & (v < H)  # samples that read a pixel of the photo
-    x0 = x1 = y0 = y1 = 0
-    if reach.any():  # each reads its pixel and the next; one more on each side for rounding
-        x0, x1 = max(int(np.floor(u[reach].min())) - 1, 0), min(int(u[reach].max()) + 3, W)
-        y0, y1 = max(int(np.floor(v[reach].min())) - 1, 0), min(int(v[reach].max()) + 3, H)
-    if x1 <= x0 or y1 <= y0:  # none: every sample is 0
+    if not reach.any():  # every sample is 0
         return np.zeros(u.shape + (3,), np.float32)
+    # each reads its pixel and the next; one more on each side for rounding
+    x0, x1 = max(int(np.floor(u[reach].min())) - 1, 0), min(int(u[reach].max()) + 3, W)
+    y0, y1 = max(int(np.floor(v[reach].min())) - 1, 0), min(int(v[reach].max()) + 3, H)
     levels = cv2.LUT(rgb[y0:y1, x0:x1], LEVEL_LUT)
     return cv2.remap(levels, u - np.float32(x0), v - np.float32(y0), cv2.INTER_LINEAR,
                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
