@@ -156,9 +156,10 @@ class GLContext:
 
     def texture(self, size: tuple[int, int], components: int, data: np.ndarray | bytes | None = None,
                 dtype: str = "f1", filter_linear: bool = False) -> moderngl.Texture:
-        """A 2D texture whose memory row 0 is image row 0 (the top)."""
+        """A 2D texture whose memory row 0 is image row 0 (the top); an array ``data`` is read
+        in place when C-contiguous (moderngl takes the buffer), copied once when not."""
         if isinstance(data, np.ndarray):
-            data = np.ascontiguousarray(data).tobytes()
+            data = np.ascontiguousarray(data)
         tex = self.ctx.texture(size, components, data, dtype=dtype)
         f = moderngl.LINEAR if filter_linear else moderngl.NEAREST
         tex.filter = (f, f)
