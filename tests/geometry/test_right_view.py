@@ -103,10 +103,15 @@ def _carried_pixel_by_pixel(depth, cam, r0, r1, c0, c1, layer, keep):
     return z_out, l_out
 
 
-def test_carried_layers_follow_the_rules_pixel_by_pixel():
+@pytest.mark.parametrize("rows_at_once", [64, 5, 1])
+def test_carried_layers_follow_the_rules_pixel_by_pixel(monkeypatch, rows_at_once):
     """Random depths with holes and near surfaces: the carried depth and labels are those of the
     rules read one pixel at a time (the nearest surface landing on a pixel, the farther of the
-    nearest landed ones where none does, labels of the image kept in place)."""
+    nearest landed ones where none does, labels of the image kept in place), whatever number of
+    rows is carried at once."""
+    from synthcompose.geometry import right_view
+
+    monkeypatch.setattr(right_view, "ROWS_AT_ONCE", rows_at_once)
     cam = _camera(48, 12)
     rng = np.random.default_rng(11)
     depth = rng.choice(np.array([0.6, 1.5, 4.0, 30.0, np.inf], np.float32), (12, 48), p=[0.1, 0.2, 0.2, 0.4, 0.1])
