@@ -30,7 +30,7 @@ uniform float u_tol_abs;           // depth tolerance, metres
 uniform float u_tol_rel;           // depth tolerance, fraction of depth
 // camera match (off by default): the inserted object gets the photo's blur and noise
 uniform sampler2D u_objc;          // object colour premultiplied by coverage (rgb), coverage (a)
-uniform sampler2D u_noise;         // standard normal noise per channel (seeded, from NumPy)
+uniform sampler2D u_noise;         // standard normal noise per channel (seeded, from NumPy): the band's rows
 uniform vec3 u_noise_sigma;        // the photo's noise, sRGB [0, 1] units; 0: no noise
 uniform float u_blur_sigma;        // Gaussian blur of the object layer, pixels
 uniform int u_blur_radius;         // its half width in pixels; 0: no blur
@@ -267,7 +267,7 @@ void main() {
         // the photo's noise where the object replaces it: what the background keeps of its own
         // noise, (1 - cover), and the added noise make up the photo's level
         float share = sqrt(max(1.0 - (1.0 - cover) * (1.0 - cover), 0.0));
-        srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p, 0).rgb * share, 0.0, 1.0);
+        srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p - u_origin, 0).rgb * share, 0.0, 1.0);
     }
     out_rgb = vec4(quantize(srgb, texelFetch(u_photo, p, 0).rgb, p), 1.0);
 #if !defined RGB_ONLY

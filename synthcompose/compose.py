@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from synthcompose.lighting.camera_match import CameraMatch
-from synthcompose.render.bands import row_bands
+from synthcompose.render.bands import COMPOSE_BAND_PIXELS, row_bands
 from synthcompose.render.gl import GLContext
 
 from .colour import linear_to_srgb, srgb_to_linear
@@ -88,21 +88,45 @@ class SceneLayers:
 NOISE_TILE = 64
 
 
-def frame_noise(seed: int, rows: slice, cols: slice) -> np.ndarray:
+def frame_noise(seed: int, rows: slice, cols: slice, tiles: dict | None = None) -> np.ndarray:
     """(h, w, 3) float32 standard normal noise of a region of the frame, each pixel's value fixed
     by its place in the frame and the seed, not by the region: a region a pixel larger (a pose
     a hair different on another CPU's arithmetic) keeps every other pixel's noise, and the
-    bands of a large region join without a seam. Drawn per :data:`NOISE_TILE` square tile."""
+    bands of a large region join without a seam. Drawn per :data:`NOISE_TILE` square tile;
+    ``tiles``: the tiles drawn so far, (tile row, tile column) -> tile, taken from and added to
+    (the compose's bands share the tiles their edges cut)."""
     t = NOISE_TILE
     out = np.empty((rows.stop - rows.start, cols.stop - cols.start, 3), np.float32)
     for ty in range(rows.start // t, (rows.stop - 1) // t + 1):
         for tx in range(cols.start // t, (cols.stop - 1) // t + 1):
-            tile = np.random.default_rng([int(seed), ty, tx]).standard_normal((t, t, 3), np.float32)
+            tile = None if tiles is None else tiles.get((ty, tx))
+            if tile is None:
+                tile = np.random.default_rng([int(seed), ty, tx]).standard_normal((t, t, 3), np.float32)
+                if tiles is not None:
+                    tiles[ty, tx] = tile
             y0, y1 = max(rows.start, ty * t), min(rows.stop, (ty + 1) * t)
             x0, x1 = max(cols.start, tx * t), min(cols.stop, (tx + 1) * t)
             out[y0 - rows.start:y1 - rows.start, x0 - cols.start:x1 - cols.start] = \
                 tile[y0 - ty * t:y1 - ty * t, x0 - tx * t:x1 - tx * t]
     return out
+
+
+class _BandNoise:
+    """The camera-match noise of a region (:func:`frame_noise`), made for one band of its rows at
+    a time; the tiles a band's last rows cut are kept for the next band's first."""
+
+    def __init__(self, seed: int, rows: slice, cols: slice) -> None:
+        self.seed, self.top, self.cols = seed, rows.start, cols
+        self.tiles: dict[tuple[int, int], np.ndarray] = {}
+
+    def rows(self, y0: int, y1: int) -> np.ndarray:
+        """(y1 - y0, w, 3) float32: the noise of the region's rows [y0, y1), in order (each band
+        below the last one)."""
+        out = frame_noise(self.seed, slice(self.top + y0, self.top + y1), self.cols, self.tiles)
+        below = (self.top + y1) // NOISE_TILE  # the first tile row the next band can reach
+        for key in [k for k in self.tiles if k[0] < below]:
+            del self.tiles[key]
+        return out
 
 
 class Composer:
@@ -164,8 +188,6 @@ class Composer:
         if "photo" not in passes.textures:
             made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
         noise_on = any(v > 0 for v in match.noise_sigma)
-        if noise_on:  # seeded in NumPy: the same seed gives the same bytes on any machine
-            made["u_noise"] = gl.texture(size, 3, frame_noise(match.seed, rows, cols), dtype="f4")
         if match.blur_radius and "objc" not in passes.textures:
             raise ValueError("blurring the object layer needs the render's 'objc' pass")
         inputs = dict(made)
@@ -206,10 +228,13 @@ class Composer:
         out = {"rgb": np.empty((h, w, 3), np.uint8)}
         if not rgb_only:
             out |= {name: np.empty((h, w), dtype) for name, dtype in OUTPUTS}
-        # band by band (one band below BAND_PIXELS): the blur's layers and the outputs exist for
-        # one band at a time; the layers of the band and of the blur's reach around it
-        for y0, y1 in row_bands(w, h):
-            self._band(prog, vao, size, (y0, y1), match.blur_radius, rgb_only, out)
+        # band by band (one band below COMPOSE_BAND_PIXELS): the blur's layers and the outputs exist
+        # for one band at a time; the layers of the band and of the blur's reach around it
+        # the noise is made band by band too (seeded in NumPy: the same seed gives the same bytes
+        # on any machine), each tile once
+        noise = _BandNoise(match.seed, rows, cols) if noise_on else None
+        for y0, y1 in row_bands(w, h, COMPOSE_BAND_PIXELS):
+            self._band(prog, vao, size, (y0, y1), match.blur_radius, rgb_only, out, noise)
         for tex in made.values():
             gl.free(tex)
         if not rgb_only:
@@ -217,21 +242,26 @@ class Composer:
         return out
 
     def _band(self, prog: moderngl.Program, vao: moderngl.VertexArray, size: tuple[int, int], band: tuple[int, int],
-              radius: int, rgb_only: bool, out: dict[str, np.ndarray]) -> None:
-        """Compose rows ``band`` of the region (``size``) into ``out``'s rows."""
+              radius: int, rgb_only: bool, out: dict[str, np.ndarray], noise: "_BandNoise | None" = None) -> None:
+        """Compose rows ``band`` of the region (``size``) into ``out``'s rows, with the camera
+        match's ``noise`` of those rows (None: no noise)."""
         gl, ctx = self.gl, self.gl.ctx
         w, (y0, y1) = size[0], band
         layers = []
+        if noise is not None:  # compose.glsl reads u_noise at the band's own rows
+            layers.append(gl.texture((w, y1 - y0), 3, noise.rows(y0, y1), dtype="f4"))
+            layers[-1].use(prog["u_noise"].value)
         if radius:  # each pixel's layers once, for the blur's taps to read
             l0, l1 = max(y0 - radius, 0), min(y1 + radius, size[1])
-            layers = [gl.texture((w, l1 - l0), 4, dtype="f4"), gl.texture((w, l1 - l0), 4, dtype="f4")]
-            layers_fbo = gl.own(ctx.framebuffer(layers))
+            blur = [gl.texture((w, l1 - l0), 4, dtype="f4"), gl.texture((w, l1 - l0), 4, dtype="f4")]
+            layers += blur
+            layers_fbo = gl.own(ctx.framebuffer(blur))
             layers_fbo.use()
             ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             self.layers_prog["u_origin"].value = (0, l0)
             self.layers_vao.render(moderngl.TRIANGLES, vertices=3)
             gl.free(layers_fbo)
-            for name, tex in zip(("u_layer_obj", "u_layer_bg"), layers):
+            for name, tex in zip(("u_layer_obj", "u_layer_bg"), blur):
                 tex.use(prog[name].value)
             prog["u_layer_origin"].value = (0, l0)
         if "u_origin" in prog:

@@ -23,3 +23,27 @@ def test_the_noise_is_seeded_standard_normal_and_joins_across_tiles():
     # bands of one region (a large region is rendered in bands) give the region's noise
     top, bottom = frame_noise(3, slice(10, 90), slice(5, 200)), frame_noise(3, slice(90, 170), slice(5, 200))
     assert np.array_equal(np.vstack([top, bottom]), frame_noise(3, slice(10, 170), slice(5, 200)))
+
+
+def test_the_compose_bands_noise_is_the_regions_each_tile_drawn_once(monkeypatch):
+    """The compose makes the noise band by band (compose._BandNoise): the bands' rows stacked are
+    the region's noise, a tile the bands' edge cuts is drawn once, and the tiles above the band
+    being composed are let go."""
+    from synthcompose import compose
+
+    rows, cols = slice(37, 37 + 300), slice(100, 230)
+    whole = frame_noise(9, rows, cols)
+    drawn = []
+    real_rng = np.random.default_rng
+    monkeypatch.setattr(compose.np.random, "default_rng", lambda key: drawn.append(tuple(key)) or real_rng(key))
+    noise = compose._BandNoise(9, rows, cols)
+    bands = [(0, 50), (50, 170), (170, 171), (171, 300)]
+    got = []
+    for y0, y1 in bands:
+        got.append(noise.rows(y0, y1))
+        assert all(ty >= (rows.start + y1) // NOISE_TILE for ty, _ in noise.tiles)
+    assert np.array_equal(np.vstack(got), whole)
+    assert len(drawn) == len(set(drawn))  # no tile twice
+    tile_rows = range(rows.start // NOISE_TILE, (rows.stop - 1) // NOISE_TILE + 1)
+    tile_cols = range(cols.start // NOISE_TILE, (cols.stop - 1) // NOISE_TILE + 1)
+    assert len(drawn) == len(tile_rows) * len(tile_cols)
