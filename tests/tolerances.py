@@ -19,6 +19,9 @@ LIT_REFERENCE_LINEAR = 1e-4
 #: half-float storage of the lit targets (render.shading.PRECISIONS): a sample loses at most one
 #: step, 2^-10 of its value (llvmpipe truncates); the resolve averages four of them
 HALF_STORAGE_REL = 2.0 ** -10
+#: the colour passes resolved into half floats too (render.COLOUR_PASSES): the mean of a pixel's
+#: samples loses one more step (measured: at most 1.53 steps in all)
+HALF_RESOLVED_REL = 2 * HALF_STORAGE_REL
 HALF_STORAGE_ABS = 1e-7  # (subnormal halves near 0)
 #: metres of a caster's edge left out on both sides when the reference decides lit / shadowed:
 #: the sun map's 12-tap, 2-texel filter blurs an edge over about 5 cm there (measured: errors

@@ -104,13 +104,15 @@ class RenderPasses:
     gl: GLContext = field(repr=False)
 
     def read(self, name: str) -> np.ndarray:
-        """Read one pass back: (H, W, C) float32, or (H, W) uint32 for ``id`` (the object
+        """Read one pass back: (H, W, C) float32 (half floats widened), or (H, W) uint32 for ``id`` (the object
         index) and ``part`` (the Cityscapes id of a part labelled apart from its object, else 0:
         both kept in the id texture)."""
         self.gl.activate().wait()
         tex = self.textures["id" if name == "part" else name]
-        dtype = np.uint32 if tex.dtype == "u4" else np.float32
+        dtype = {"u4": np.uint32, "f2": np.float16}.get(tex.dtype, np.float32)
         arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
+        if dtype is np.float16:  # a pass of colour resolved in half floats (render.COLOUR_PASSES)
+            arr = arr.astype(np.float32)
         arr = arr[..., 0] if tex.components == 1 else arr
         if name == "id":
             return arr & np.uint32((1 << PART_SHIFT) - 1)

@@ -45,7 +45,7 @@ from synthcompose.camera import Camera
 from synthcompose.models import MeshPart, Model
 from synthcompose.render import Lighting, Renderer, RenderObject
 
-from ..tolerances import HALF_STORAGE_ABS, HALF_STORAGE_REL, LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
+from ..tolerances import HALF_RESOLVED_REL, HALF_STORAGE_ABS, LIT_REFERENCE_LINEAR, SHADOW_EDGE_MARGIN_M
 
 CAMERA = Camera(fx=200.0, fy=200.0, u0=96.0, v0=48.0, baseline=0.2, x=0.0, y=0.0, z=1.22, yaw=0.0, pitch=0.05,
                 roll=0.0, width=192, height=96)
@@ -384,13 +384,13 @@ def test_planes_take_their_albedo_from_the_photo(gl_clean):
 
 @pytest.mark.parametrize("shading", ["pixel", "sample"])
 def test_half_float_storage_only_rounds(gl_clean, shading):
-    """The batch's renderer stores the lit pass's colours in half floats: the passes differ from
-    full floats' by their rounding alone (relative, per sample, averaged by the resolve); the
-    coverage and the plane's depth not at all."""
+    """The batch's renderer stores the lit pass's colours in half floats, and resolves them into
+    half floats: the passes differ from full floats' by their rounding alone (relative, per
+    sample, averaged by the resolve, then the mean's); the coverage and the plane's depth not at all."""
     full, _ = _render(gl_clean, shading)
     half, _ = _render(gl_clean, shading, precision="half")
     for name in ("objc", "irpv", "ir"):
-        bound = HALF_STORAGE_REL * np.abs(full[name]) + HALF_STORAGE_ABS
+        bound = HALF_RESOLVED_REL * np.abs(full[name]) + HALF_STORAGE_ABS
         assert (np.abs(half[name] - full[name]) <= bound).all(), name
     for name in ("alpha", "plane"):
         assert np.array_equal(half[name], full[name]), name
