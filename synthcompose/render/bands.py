@@ -1,5 +1,5 @@
 """A large region of interest rendered in bands of rows, so that the lit pass's intermediate
-targets (about 230 bytes per pixel at their peak: the per-pixel colours, the multisampled
+targets (about 220 bytes per pixel at their peak: the per-pixel colours, the multisampled
 targets) exist for one band at a time; the passes the compose reads stay whole.
 
 A band draws the whole region's geometry with the region's projection into a framebuffer of
@@ -18,8 +18,16 @@ import moderngl
 
 from .gl import GLContext
 
-#: a region of interest of more pixels than this is rendered in bands of about this many
-BAND_PIXELS = 1 << 18
+#: a region of interest of more pixels than this is rendered in bands of about this many. The
+#: lit pass's targets take about 220 bytes a band pixel at their peak (28 MB at 2^17 pixels);
+#: each band draws the region's geometry again (its vertices and the setup of each draw), so a
+#: smaller band costs CPU: on 12 generated sets 2^16 took about 5 % more CPU per set than 2^18
+#: and 2^17 the same within this machine's spread, for 40-50 MB less peak memory per worker
+#: (docs/performance.md, fourth round)
+BAND_PIXELS = 1 << 17
+#: the compose's bands (:mod:`synthcompose.compose`): its outputs and the blur's layers, about
+#: 40 bytes a pixel, with the blur's reach drawn again around each band
+COMPOSE_BAND_PIXELS = 1 << 18
 #: rows of the neighbouring bands each band draws too (NEIGHBOURS reads one pixel around)
 APRON = 1
 _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9

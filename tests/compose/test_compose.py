@@ -174,7 +174,7 @@ def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
     comp = Composer(gl_clean)
     for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
         whole = comp.compose_roi(passes, scene, [26], [26000], match)
-        monkeypatch.setattr(compose_module, "row_bands", lambda w, h: bands.row_bands(w, h, 3 * W))
+        monkeypatch.setattr(compose_module, "row_bands", lambda w, h, _n: bands.row_bands(w, h, 3 * W))
         banded = comp.compose_roi(passes, scene, [26], [26000], match)
         monkeypatch.undo()
         assert whole.keys() == banded.keys()
