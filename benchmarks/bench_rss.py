@@ -7,12 +7,15 @@ streams image sets (Pipeline.stream, three sets in the works) or runs them one a
 Uses the benchmarks' generated data (`bench_cost.dataset`, one car per set, the right view on).
 Prints the peak, the highest RSS seen under each combination of stages running at once, and
 with ``--timeline`` each change of that combination (seconds, MB, stages). Linux only (reads
-/proc/self/statm).
+/proc/self/statm). The shade's steps on the GL thread (the left view's render and compose, the
+right view) are shown as ``shade:<step>``.
 """
 from __future__ import annotations
 
 import argparse
 import collections
+import contextlib
+import importlib
 import os
 import sys
 import tempfile
@@ -30,6 +33,8 @@ from synthcompose.manifest import load_manifest  # noqa: E402
 from synthcompose.run import pipeline  # noqa: E402
 
 STAGES = ("prepare", "place", "measure_light", "shade", "write_done")
+#: the GL thread's steps within "shade" (stages.shade's timed stages), shown as shade:<step>
+SHADE_STEPS = ("render", "compose", "right")
 PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
@@ -56,6 +61,22 @@ def traced(count: int, width: int, height: int, sequential: bool) -> list[tuple[
 
     for name in STAGES:  # the pipeline calls the stages by the names it imported
         setattr(pipeline, name, wrap(name, getattr(pipeline, name)))
+    shade_module = importlib.import_module("synthcompose.stages.shade")
+    timed = shade_module.timed
+
+    @contextlib.contextmanager
+    def tagged(timings, stage):
+        with lock:
+            active[f"shade:{stage}"] += 1
+        try:
+            with timed(timings, stage):
+                yield
+        finally:
+            with lock:
+                active[f"shade:{stage}"] -= 1
+
+    shade_module.timed = tagged
+    names = STAGES + tuple(f"shade:{step}" for step in SHADE_STEPS)
     samples: list[tuple[float, float, tuple[str, ...]]] = []
     done = threading.Event()
 
@@ -63,7 +84,7 @@ def traced(count: int, width: int, height: int, sequential: bool) -> list[tuple[
         t0 = time.perf_counter()
         while not done.is_set():
             with lock:
-                running = tuple(k for k in STAGES if active[k])
+                running = tuple(k for k in names if active[k])
             samples.append((time.perf_counter() - t0, rss_mb(), running))
             time.sleep(0.003)
 
