@@ -41,6 +41,9 @@ uniform sampler2D u_layer_bg;
 // framebuffer's (0, 0), and at the layer textures' (0, 0); (0, 0) when it is done whole
 uniform ivec2 u_origin;
 uniform ivec2 u_layer_origin;
+// the real scene's layers (photo, depth, labels, ground, instances, disparity) are made for the rows a
+// band reads: the region's pixel at their (0, 0)
+uniform ivec2 u_scene_origin;
 
 uniform usampler2D u_ground;       // 1 where the real scene is ground the objects stand on
 uniform float u_ground_band;       // K sigma_d / (f B): the real ground's depth error is this * z^2
@@ -96,16 +99,16 @@ struct Pixel {
 
 Pixel fetch(ivec2 q) {
     Pixel x;
-    x.R = srgb_to_linear(texelFetch(u_photo, q, 0).rgb);
+    x.R = srgb_to_linear(texelFetch(u_photo, q - u_scene_origin, 0).rgb);
     x.irpv = texelFetch(u_irpv, q, 0).rgb;
     x.c = texelFetch(u_objc, q, 0).rgb;
     x.ir = texelFetch(u_ir, q, 0).rgb;
     x.a = texelFetch(u_alpha, q, 0).r;
     vec2 plane = texelFetch(u_plane, q, 0).rg;
-    x.sd = texelFetch(u_scene_depth, q, 0).r;
-    x.label = texelFetch(u_labels, q, 0).r;
+    x.sd = texelFetch(u_scene_depth, q - u_scene_origin, 0).r;
+    x.label = texelFetch(u_labels, q - u_scene_origin, 0).r;
     x.front = label_in_front(x.label);
-    x.ground = texelFetch(u_ground, q, 0).r != 0u;
+    x.ground = texelFetch(u_ground, q - u_scene_origin, 0).r != 0u;
     x.obj_vis = x.a > 0.0 && in_front(texelFetch(u_odepth, q, 0).r / max(x.a, 1e-6), x.sd, x.front, x.ground);
     x.plane_vis = plane.g > 0.0 && in_front(plane.r / plane.g, x.sd, x.front, x.ground);
     if (x.a > 0.0) {
@@ -143,7 +146,7 @@ vec3 blurred(ivec2 p, out float cover) {
     vec4 obj0 = texelFetch(u_layer_obj, p - u_layer_origin, 0);
     vec3 bg0 = texelFetch(u_layer_bg, p - u_layer_origin, 0).rgb;
     bool covered = obj0.a >= 0.999;
-    ivec2 hi = textureSize(u_photo, 0) - 1;
+    ivec2 hi = textureSize(u_alpha, 0) - 1;  // the region (the photo is made for the band)
     if (!covered) {
         // no object within reach: the blur below adds nothing and B = bg0, exactly (most of
         // the region of interest is the planes around the objects)
@@ -269,19 +272,19 @@ void main() {
         float share = sqrt(max(1.0 - (1.0 - cover) * (1.0 - cover), 0.0));
         srgb = clamp(srgb + u_noise_sigma * texelFetch(u_noise, p - u_origin, 0).rgb * share, 0.0, 1.0);
     }
-    out_rgb = vec4(quantize(srgb, texelFetch(u_photo, p, 0).rgb, p), 1.0);
+    out_rgb = vec4(quantize(srgb, texelFetch(u_photo, p - u_scene_origin, 0).rgb, p), 1.0);
 #if !defined RGB_ONLY
-    uint label = texelFetch(u_labels, p, 0).r;
+    uint label = texelFetch(u_labels, p - u_scene_origin, 0).r;
     uint raw = texelFetch(u_id, p, 0).r;
     uint id = raw & 255u;
     uint part = raw >> 8u;  // a part labelled apart from its object (a sign's pole): its class, no instance
     out_label = label;
-    out_instance = texelFetch(u_instances, p, 0).r;
-    out_disparity = texelFetch(u_disparity, p, 0).r;
+    out_instance = texelFetch(u_instances, p - u_scene_origin, 0).r;
+    out_disparity = texelFetch(u_disparity, p - u_scene_origin, 0).r;
     out_visible = 0u;
     if (id > 0u) {
         float od = texelFetch(u_id_depth, p, 0).r;
-        if (in_front(od, texelFetch(u_scene_depth, p, 0).r, label_in_front(label), texelFetch(u_ground, p, 0).r != 0u)) {
+        if (in_front(od, texelFetch(u_scene_depth, p - u_scene_origin, 0).r, label_in_front(label), texelFetch(u_ground, p - u_scene_origin, 0).r != 0u)) {
             out_label = part > 0u ? part : u_class[id];
             out_instance = part > 0u ? part : u_instance[id];
             out_disparity = uint(clamp(floor(u_disp_scale / od + 0.5) + 1.0, 1.0, 65535.0));
@@ -292,7 +295,7 @@ void main() {
             // car's windows as the car); behind a pane with the interior behind it (a = 1), the
             // object's
             if (texelFetch(u_alpha, p, 0).r < 1.0 - SEE_THROUGH && inside(p, id))
-                out_disparity = texelFetch(u_disparity, p, 0).r;
+                out_disparity = texelFetch(u_disparity, p - u_scene_origin, 0).r;
         }
     }
 #endif

@@ -1,7 +1,7 @@
 """Stage 5 - compose: differential rendering into the photo, and the new ground truth.
 
-Runs ``shaders/compose.glsl`` over the render's region of interest, then pastes that region
-into copies of the full-frame arrays. Outputs per pixel (see the shader for the rule):
+Runs ``shaders/compose.glsl`` over the render's region of interest, band by band of its rows,
+into that region of copies of the full-frame arrays. Outputs per pixel (see the shader for the rule):
 RGB R' = a*Irpv + (1-a)*(R + Irpv - Ir) in linear light; labels, instance ids and
 disparity take the object's values where its pixel centre is in front of the real scene.
 
@@ -23,7 +23,7 @@ from synthcompose.render.gl import GLContext
 
 from .colour import linear_to_srgb, srgb_to_linear
 from .labels import label_ids
-from .render import RenderPasses
+from .render import RenderPasses, Roi
 
 #: labels that are always in front of inserted objects (they belong to our own car or the
 #: image border): ego vehicle, rectification border, out of roi
@@ -40,6 +40,9 @@ GROUND_TOL_REL = 0.05
 
 #: the compose's integer outputs after the colour: name, dtype (the texture's: 8 or 16 bits)
 OUTPUTS = (("label_ids", np.uint8), ("instance_ids", np.uint16), ("disparity", np.uint16), ("visible", np.uint8))
+#: the real scene's layers the compose shader reads, the photo first, made for each band's rows
+#: (the colour-only variant reads the first four)
+SCENE_LAYERS = ("u_photo", "u_scene_depth", "u_labels", "u_ground", "u_instances", "u_disparity")
 
 
 def _uint_texture(gl: GLContext, size: tuple[int, int], values: np.ndarray) -> moderngl.Texture:
@@ -61,7 +64,7 @@ def label_mask(labels: np.ndarray, ids) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class Composed:
     """Full-frame outputs. rgb (H, W, 3) uint8; label_ids (H, W) uint8; instance_ids (H, W)
-    int32; disparity (H, W) uint16."""
+    the scene's type (uint16, as a Cityscapes file holds them); disparity (H, W) uint16."""
 
     rgb: np.ndarray
     label_ids: np.ndarray
@@ -76,7 +79,7 @@ class SceneLayers:
 
     rgb: np.ndarray  # (H, W, 3) uint8 sRGB
     label_ids: np.ndarray  # (H, W) uint8
-    instance_ids: np.ndarray  # (H, W) int32
+    instance_ids: np.ndarray  # (H, W) uint16 (Cityscapes' instanceIds)
     disparity: np.ndarray  # (H, W) uint16
     depth: np.ndarray  # (H, W) float32 metres, inf where unknown
     disparity_scale: float  # baseline * fx * 256
@@ -162,41 +165,31 @@ class Composer:
     def compose_roi(self, passes: RenderPasses, scene: SceneLayers, classes: Sequence[int],
                     instances: Sequence[int], match: CameraMatch | None = None,
                     tones: Sequence[tuple[float, float]] | None = None,
-                    rgb_only: bool = False) -> dict[str, np.ndarray]:
+                    rgb_only: bool = False, into: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
         """Compose inside ``passes.roi``; returns ROI-sized arrays rgb/label_ids/instance_ids/disparity/visible
         (``rgb_only``: rgb alone, for a view whose labels are not written: the right view).
         ``match``: blur and noise for the object layer (None: none); ``tones``: (gain, saturation)
         of each object's linear colour, the camera's look (lighting.camera.object_tones; None:
-        as rendered)."""
+        as rendered). ``into``: the arrays to write them into (the ROI's views of the full-frame
+        outputs; rgb uint8, the others any integer type that holds them), returned."""
         if len(classes) > MAX_OBJECTS:
             raise ValueError(f"at most {MAX_OBJECTS} objects per image set")
-        gl = self.gl.activate()
+        self.gl.activate()
         roi = passes.roi
         rows, cols = roi.slices
-        size = (roi.width, roi.height)
         match = match or CameraMatch()
         prog, vao = self._variant(blur=match.blur_radius > 0, rgb_only=rgb_only)
-        made = {  # integer layers in as few bytes as hold them (read as uint all the same)
-            "u_scene_depth": gl.texture(size, 1, np.ascontiguousarray(scene.depth[rows, cols]), dtype="f4"),
-            "u_labels": _uint_texture(gl, size, scene.label_ids[rows, cols]),
-            "u_ground": _uint_texture(gl, size, np.zeros((roi.height, roi.width), np.uint8) if scene.ground is None
-                                      else scene.ground[rows, cols]),
-        }
-        if not rgb_only:
-            made["u_instances"] = _uint_texture(gl, size, scene.instance_ids[rows, cols])
-            made["u_disparity"] = _uint_texture(gl, size, scene.disparity[rows, cols])
-        if "photo" not in passes.textures:
-            made["u_photo"] = gl.texture(size, 3, np.ascontiguousarray(scene.rgb[rows, cols]), dtype="f1")
         noise_on = any(v > 0 for v in match.noise_sigma)
         if match.blur_radius and "objc" not in passes.textures:
             raise ValueError("blurring the object layer needs the render's 'objc' pass")
-        inputs = dict(made)
-        for name in ("photo", "irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth", "objc"):
+        inputs = {}
+        for name in ("irpv", "ir", "alpha", "odepth", "plane", "id", "id_depth", "objc"):
             if name in passes.textures:
                 inputs[f"u_{name}"] = passes.textures[name]
+        # the band's own textures: the real scene's layers and the camera's noise (_band)
+        for name in SCENE_LAYERS[:4 if rgb_only else 6] + ("u_noise", "u_layer_obj", "u_layer_bg"):
+            inputs[name] = self._zero
         inputs.setdefault("u_objc", self._zero)
-        inputs.setdefault("u_noise", self._zero)
-        inputs["u_layer_obj"] = inputs["u_layer_bg"] = self._zero
         for unit, (name, tex) in enumerate(inputs.items()):
             tex.use(unit)
             for p in (prog, self.layers_prog):
@@ -225,34 +218,50 @@ class Composer:
             prog["u_class"].write(cls.tobytes())
             prog["u_instance"].write(inst.tobytes())
         h, w = roi.height, roi.width
-        out = {"rgb": np.empty((h, w, 3), np.uint8)}
-        if not rgb_only:
-            out |= {name: np.empty((h, w), dtype) for name, dtype in OUTPUTS}
-        # band by band (one band below COMPOSE_BAND_PIXELS): the blur's layers and the outputs exist
-        # for one band at a time; the layers of the band and of the blur's reach around it
-        # the noise is made band by band too (seeded in NumPy: the same seed gives the same bytes
-        # on any machine), each tile once
+        out = into if into is not None else {"rgb": np.empty((h, w, 3), np.uint8)} | (
+            {} if rgb_only else {name: np.empty((h, w), dtype) for name, dtype in OUTPUTS})
+        # band by band (one band below COMPOSE_BAND_PIXELS): the scene's layers, the blur's layers,
+        # the noise and the outputs exist for one band at a time (with the rows around it the
+        # blur reads); the noise is seeded in NumPy (the same seed gives the same bytes on any
+        # machine), each of its tiles drawn once
         noise = _BandNoise(match.seed, rows, cols) if noise_on else None
         for y0, y1 in row_bands(w, h, COMPOSE_BAND_PIXELS):
-            self._band(prog, vao, size, (y0, y1), match.blur_radius, rgb_only, out, noise)
-        for tex in made.values():
-            gl.free(tex)
-        if not rgb_only:
-            out["instance_ids"] = out["instance_ids"].astype(np.int32)
+            self._band(prog, vao, scene, roi, (y0, y1), match.blur_radius, rgb_only, out, noise)
         return out
 
-    def _band(self, prog: moderngl.Program, vao: moderngl.VertexArray, size: tuple[int, int], band: tuple[int, int],
+    def _scene_layers(self, scene: SceneLayers, roi: Roi, rows: tuple[int, int], rgb_only: bool) -> list[moderngl.Texture]:
+        """Textures of the real scene's :data:`SCENE_LAYERS` in the region's ``rows`` [r0, r1)
+        (the colour-only variant's first four); integer layers in as few bytes as hold them."""
+        gl = self.gl
+        ys = slice(roi.y0 + rows[0], roi.y0 + rows[1])
+        xs = roi.slices[1]
+        size = (roi.width, rows[1] - rows[0])
+        ground = scene.ground[ys, xs] if scene.ground is not None else np.zeros(size[::-1], np.uint8)
+        made = [gl.texture(size, 3, np.ascontiguousarray(scene.rgb[ys, xs]), dtype="f1"),
+                gl.texture(size, 1, np.ascontiguousarray(scene.depth[ys, xs]), dtype="f4"),
+                _uint_texture(gl, size, scene.label_ids[ys, xs]), _uint_texture(gl, size, ground)]
+        if not rgb_only:
+            made += [_uint_texture(gl, size, scene.instance_ids[ys, xs]), _uint_texture(gl, size, scene.disparity[ys, xs])]
+        return made
+
+    def _band(self, prog: moderngl.Program, vao: moderngl.VertexArray, scene: SceneLayers, roi: Roi, band: tuple[int, int],
               radius: int, rgb_only: bool, out: dict[str, np.ndarray], noise: "_BandNoise | None" = None) -> None:
-        """Compose rows ``band`` of the region (``size``) into ``out``'s rows, with the camera
-        match's ``noise`` of those rows (None: no noise)."""
+        """Compose rows ``band`` of the region ``roi`` of ``scene`` into ``out``'s rows, with the
+        camera match's ``noise`` of those rows (None: no noise)."""
         gl, ctx = self.gl, self.gl.ctx
-        w, (y0, y1) = size[0], band
-        layers = []
+        w, (y0, y1) = roi.width, band
+        # the rows the band reads: its own, and the blur's reach around them (the LAYERS pass)
+        l0, l1 = (max(y0 - radius, 0), min(y1 + radius, roi.height)) if radius else (y0, y1)
+        layers = self._scene_layers(scene, roi, (l0, l1), rgb_only)
+        for name, tex in zip(SCENE_LAYERS, layers):
+            for p in (prog, self.layers_prog):
+                if name in p:
+                    tex.use(p[name].value)
+                    p["u_scene_origin"].value = (0, l0)
         if noise is not None:  # compose.glsl reads u_noise at the band's own rows
             layers.append(gl.texture((w, y1 - y0), 3, noise.rows(y0, y1), dtype="f4"))
             layers[-1].use(prog["u_noise"].value)
         if radius:  # each pixel's layers once, for the blur's taps to read
-            l0, l1 = max(y0 - radius, 0), min(y1 + radius, size[1])
             blur = [gl.texture((w, l1 - l0), 4, dtype="f4"), gl.texture((w, l1 - l0), 4, dtype="f4")]
             layers += blur
             layers_fbo = gl.own(ctx.framebuffer(blur))
@@ -292,10 +301,9 @@ class Composer:
                        np.zeros(scene.label_ids.shape, np.uint8))
         if passes is None:
             return out
-        roi_out = self.compose_roi(passes, scene, classes, instances, match, tones)
-        rows, cols = passes.roi.slices
-        for name, arr in roi_out.items():
-            getattr(out, name)[rows, cols] = arr
+        rows, cols = passes.roi.slices  # composed into the copies' region (no region-sized arrays)
+        self.compose_roi(passes, scene, classes, instances, match, tones,
+                         into={name: getattr(out, name)[rows, cols] for name in ("rgb",) + tuple(n for n, _ in OUTPUTS)})
         return out
 
 

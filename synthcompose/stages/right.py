@@ -71,9 +71,8 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_sha
         right = SceneLayers(photo, carried["label_ids"], unread, unread, carried["depth"], scene.disparity_scale,
                             ground=carried.get("ground"), ground_band=scene.ground_band)
         match = None if match is None else replace(match, seed=right_noise_seed(match.seed))
-        out = composer.compose_roi(passes, right, classes, instances, match, tones, rgb_only=True)
+        rgb = photo.copy()  # composed into its region
+        composer.compose_roi(passes, right, classes, instances, match, tones, rgb_only=True, into={"rgb": rgb[rows, cols]})
     finally:
         renderer.release(passes)
-    rgb = photo.copy()
-    rgb[rows, cols] = out["rgb"]
     return rgb

@@ -170,16 +170,52 @@ def test_banded_compose_gives_the_same_bytes(gl_clean, monkeypatch):
     alpha = rng.random((H, W)).astype(np.float32)
     alpha[rng.random((H, W)) < 0.5] = 0.0
     passes = _random_passes(gl_clean, rng, alpha)
-    scene = _scene(rng, np.inf)
+    # the real scene's layers, made for each band's rows, in front of the object and behind it
+    # from pixel to pixel, over ground here and there
+    plain = _scene(rng, np.inf)
+    scene = SceneLayers(plain.rgb, plain.label_ids, plain.instance_ids, plain.disparity,
+                        rng.uniform(OBJ_DEPTH - 2, OBJ_DEPTH + 2, (H, W)).astype(np.float32), plain.disparity_scale,
+                        ground=rng.random((H, W)) < 0.3, ground_band=0.05)
     comp = Composer(gl_clean)
     for match in (None, CameraMatch((2.0, 2.0, 2.0), 1.2, 1.0, seed=3)):
-        whole = comp.compose_roi(passes, scene, [26], [26000], match)
-        monkeypatch.setattr(compose_module, "row_bands", lambda w, h, _n: bands.row_bands(w, h, 3 * W))
-        banded = comp.compose_roi(passes, scene, [26], [26000], match)
-        monkeypatch.undo()
-        assert whole.keys() == banded.keys()
-        for name in whole:
-            assert np.array_equal(whole[name], banded[name]), name
+        for rgb_only in (False, True):
+            whole = comp.compose_roi(passes, scene, [26], [26000], match, rgb_only=rgb_only)
+            monkeypatch.setattr(compose_module, "row_bands", lambda w, h, _n: bands.row_bands(w, h, 3 * W))
+            banded = comp.compose_roi(passes, scene, [26], [26000], match, rgb_only=rgb_only)
+            monkeypatch.undo()
+            assert whole.keys() == banded.keys()
+            for name in whole:
+                assert np.array_equal(whole[name], banded[name]), (name, rgb_only)
+            if not rgb_only:  # the object hidden in places, and the real scene's values kept there
+                assert 0 < (whole["visible"] > 0).sum() < (alpha > 0).sum()
+                kept = whole["visible"] == 0
+                assert np.array_equal(whole["disparity"][kept], scene.disparity[kept])
+
+
+def test_compose_writes_into_the_full_frame_arrays(gl_clean):
+    """Composer.compose fills the region of copies of the frame's arrays in place: the same
+    values as compose_roi's own arrays, the frame around the region as it was."""
+    from synthcompose.compose import Composer
+
+    rng = np.random.default_rng(6)
+    alpha = rng.random((H, W)).astype(np.float32)
+    alpha[rng.random((H, W)) < 0.4] = 0.0
+    frame = _scene(rng, np.inf)
+    big = SceneLayers(*(np.pad(a, ((3, 5), (4, 2)) + ((0, 0),) * (a.ndim - 2), mode="edge")
+                        for a in (frame.rgb, frame.label_ids, frame.instance_ids, frame.disparity, frame.depth)),
+                      disparity_scale=frame.disparity_scale)
+    passes = _random_passes(gl_clean, rng, alpha)
+    passes = RenderPasses(Roi(4, 3, W, H), passes.camera, passes.textures, gl_clean)
+    comp = Composer(gl_clean)
+    roi = comp.compose_roi(passes, big, [26], [26000])
+    full = comp.compose(passes, big, [26], [26000])
+    for name, arr in roi.items():
+        out = getattr(full, name)
+        before = np.zeros_like(out) if name == "visible" else getattr(big, name)
+        assert out.dtype == before.dtype and np.array_equal(out[3:3 + H, 4:4 + W], arr), name
+        outside = np.ones(out.shape[:2], bool)
+        outside[3:3 + H, 4:4 + W] = False
+        assert np.array_equal(out[outside], before[outside]), name
 
 
 def test_a_fading_shadow_leaves_no_step_of_a_whole_level(gl_clean):
