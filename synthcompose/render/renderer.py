@@ -121,8 +121,7 @@ class Renderer:
         """Render every pass for ``objects`` inside ``roi`` (default: their screen rectangle).
 
         ``photo`` (H, W, 3) uint8 sRGB, the full frame: when given, the ground planes take
-        their albedo from it per pixel (see lit.glsl) and the ROI crop is kept in the
-        passes as ``photo`` for the compose stage. ``sun_mask`` (H, W) float, full frame: the sun
+        their albedo from it per pixel (see lit.glsl). ``sun_mask`` (H, W) float, full frame: the sun
         reaching the real ground at each pixel (0 in its real shadows, lighting.py); the planes
         use it instead of their object's ``sun_visibility``. ``eye`` (camera, its full photo):
         the view the view-dependent light (highlights, reflections of the photo) is worked out
@@ -146,7 +145,6 @@ class Renderer:
         tex: dict[str, moderngl.Texture] = {}
         env = None
         if photo is not None:
-            tex["photo"] = gl.texture(size, 3, photo_roi, dtype="f1")
             env = self._environment(photo if eye is None else eye[1])  # reflections (lit.glsl: environment)
         view = cam.optical_from_vehicle
         proj = cam.gl_projection(NEAR, FAR)
@@ -158,20 +156,19 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         bands = row_bands(*size)
-        depth_tex = None
-        if len(bands) == 1:  # the whole region at once
-            if sun_roi is not None:
-                tex["sun_mask"] = gl.texture(size, 1, sun_roi, dtype="f4")
-            depth_tex = None if depth_roi is None else gl.texture(size, 1, depth_roi, dtype="f4")
-            bind_inputs(self._blank, self.shadows.textures, tex.get("photo"), env, tex.get("sun_mask"), depth_tex)
+        if len(bands) == 1:  # the whole region at once; its inputs freed once drawn
+            inputs = [None if a is None else gl.texture(size, c, a, dtype=d)
+                      for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"), (depth_roi, 1, "f4"))]
+            bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1], inputs[2])
             tex.update(self._lit_passes(objects, lighting, size, view, proj))
+            for t in inputs:
+                if t is not None:
+                    gl.free(t)
         else:  # band by band into the whole region's passes (render.bands)
             whole = {name: gl.texture(size, c, dtype=self.pass_dtypes[name]) for name, c in PASSES}
             for band in bands:
                 self._band(objects, lighting, size, view, proj, band, whole, env, photo_roi, sun_roi, depth_roi)
             tex.update(whole)
-        if depth_tex is not None:
-            gl.free(depth_tex)
         tex["id"], tex["id_depth"] = self._ids(objects, size, view, proj)
         return RenderPasses(roi, cam, tex, gl)
 
@@ -231,15 +228,15 @@ class Renderer:
 
     def _ids(self, objects: Sequence[RenderObject], size: tuple[int, int], view: np.ndarray, proj: np.ndarray):
         """The id pass: (uint object index 1..K at each pixel centre, 0 = none, with a part's
-        own label above gpu_model.PART_SHIFT; its depth)."""
+        own label above gpu_model.PART_SHIFT: 16 bits; its depth)."""
         gl, ctx = self.gl, self.gl.ctx
-        ids = gl.texture(size, 1, dtype="u4")
+        ids = gl.texture(size, 1, dtype="u2")
         id_depth = gl.texture(size, 1, dtype="f4")
         id_depth_rb = gl.own(ctx.depth_renderbuffer(size))
         id_fbo = gl.own(ctx.framebuffer([ids, id_depth], id_depth_rb))
         id_fbo.use()
         id_fbo.clear(depth=1.0)
-        ids.write(np.zeros(size[::-1], np.uint32))  # clear() cannot clear integer targets
+        ids.write(np.zeros(size[::-1], np.uint16))  # clear() cannot clear integer targets
         idp = self.programs["id"]
         idp["u_view"].write(gl_mat4(view))
         idp["u_proj"].write(gl_mat4(proj))
