@@ -272,7 +272,7 @@ def _saturation_for(colours: np.ndarray, target: float, noise: np.ndarray, gain:
 def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: ToneReference,
                  fallback_gain: float = 1.0, match: CameraMatch | None = None) -> list[dict]:
     """The camera's look for each rendered object k = 1..K (``objc``: the render's premultiplied
-    object colour, ``ids``: its object index per pixel; ``classes``/``ranks``: each object's
+    object colour, float16 or float32; ``ids``: its object index per pixel; ``classes``/``ranks``: each object's
     Cityscapes id and its appearance's (lightness, colourfulness) rank).
 
     Where the frame has references for its class, the object's median HSV value and saturation
@@ -286,7 +286,7 @@ def object_tones(objc: np.ndarray, ids: np.ndarray, classes, ranks, reference: T
     out = []
     for k, (cid, (q_v, q_s)) in enumerate(zip(classes, ranks), start=1):
         ref, what = reference.for_class(int(cid))
-        sel = (ids == k) & (objc[..., 3] >= 0.999)
+        sel = (ids == k) & (objc[..., 3] >= np.float32(0.999))  # (in float32 for a pass in half floats too)
         if ref is None or sel.sum() < 20:
             out.append({"gain": float(fallback_gain), "saturation": 1.0,
                         "reference": what if ref is None else "too small"})

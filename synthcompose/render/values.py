@@ -103,15 +103,16 @@ class RenderPasses:
     textures: dict[str, moderngl.Texture] = field(repr=False)
     gl: GLContext = field(repr=False)
 
-    def read(self, name: str) -> np.ndarray:
-        """Read one pass back: (H, W, C) float32 (half floats widened), or (H, W) uint32 for ``id`` (the object
+    def read(self, name: str, widen: bool = True) -> np.ndarray:
+        """Read one pass back: (H, W, C) float32 (half floats widened; ``widen`` False: as
+        stored, float16 for a pass of colour), or (H, W) uint32 for ``id`` (the object
         index) and ``part`` (the Cityscapes id of a part labelled apart from its object, else 0:
         both kept in the id texture)."""
         self.gl.activate().wait()
         tex = self.textures["id" if name == "part" else name]
-        dtype = {"u4": np.uint32, "f2": np.float16}.get(tex.dtype, np.float32)
+        dtype = {"u4": np.uint32, "u2": np.uint16, "f2": np.float16}.get(tex.dtype, np.float32)
         arr = np.frombuffer(tex.read(), dtype).reshape(tex.height, tex.width, tex.components)
-        if dtype is np.float16:  # a pass of colour resolved in half floats (render.COLOUR_PASSES)
+        if dtype is np.float16 and widen:  # a pass of colour resolved in half floats (render.COLOUR_PASSES)
             arr = arr.astype(np.float32)
         arr = arr[..., 0] if tex.components == 1 else arr
         if name == "id":

@@ -166,12 +166,13 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
                             ground_band=K_SIGMA * noise.sigma_d / noise.focal_baseline)
         classes = [label_id(o.spec.class_name) for o in placed.objects]
         tones, camera_looks = None, [None] * len(placed.objects)
-        ids = passes.read("id") if passes is not None else None  # object index per pixel
+        # object index per pixel (at most MAX_OBJECTS: a byte, held through the compose)
+        ids = passes.read("id").astype(np.uint8) if passes is not None else None
         if ids is not None and any(p.label for o in placed.objects for p in o.model.parts):
             ids[passes.read("part") > 0] = 0  # each object's own class: not a sign's pole
         if passes is not None and light.reference is not None:  # the camera's look on the objects
             fallback = estimate.exposure if estimate is not None and not o.match_exposure else 1.0
-            camera_looks = object_tones(passes.read("objc"), ids, classes, [look.rank for _, _, look in looks],
+            camera_looks = object_tones(passes.read("objc", widen=False), ids, classes, [look.rank for _, _, look in looks],
                                         light.reference, fallback, match)
             tones = [(t["gain"], t["saturation"]) for t in camera_looks]
         instances = [o.instance_id for o in placed.objects]
