@@ -184,7 +184,7 @@ class ImageSet:
 
     rgb          : (H, W, 3) uint8, sRGB
     label_ids    : (H, W) uint8, Cityscapes label ids
-    instance_ids : (H, W) int32, id*1000+k for instance classes, plain label id elsewhere
+    instance_ids : (H, W) uint16 (the file's), id*1000+k for instance classes, plain label id elsewhere
     disparity    : (H, W) uint16, Cityscapes encoding (p=0 invalid, d=(p-1)/256 px)
     camera       : the frame's own calibration
     vehicle      : its GPS heading and position (Cityscapes' vehicle file), None without one
@@ -271,7 +271,7 @@ def read_image_set(root: Path, ident: ImageSetId, right: bool = False) -> ImageS
         bad = np.arange(256)[~KNOWN_IDS][unknown]
         raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")
     check_disparity(disp_path, disparity, w)
-    return ImageSet(ident, rgb, labels, instances.astype(np.int32), disparity, camera, labelled, right_rgb, vehicle)
+    return ImageSet(ident, rgb, labels, instances, disparity, camera, labelled, right_rgb, vehicle)
 
 
 # ------------------------------------------------------------ input polygons (gtFine)

@@ -28,7 +28,7 @@ def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_
     files = {
         "rgb": lambda: composed.rgb,
         "labelIds": lambda: composed.label_ids,
-        "instanceIds": lambda: composed.instance_ids.astype("uint16"),
+        "instanceIds": lambda: np.asarray(composed.instance_ids, np.uint16),
         "color": lambda: colorize(composed.label_ids),
         "disparity": lambda: composed.disparity,
     }

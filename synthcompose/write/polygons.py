@@ -166,7 +166,7 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
     """
     label_ids = np.asarray(label_ids)
     instance_ids = np.asarray(instance_ids)
-    if instance_ids.dtype != np.int32:
+    if instance_ids.dtype not in (np.int32, np.uint16):  # (Cityscapes' own 16 bits: no copy)
         instance_ids = instance_ids.astype(np.int64 if instance_ids.size and instance_ids.max() >= 2 ** 31 else np.int32)
     # each pixel's segment: its instance id, or its label id (a class without instances, a group)
     segment = np.where(instance_ids >= INSTANCE_FACTOR, instance_ids, label_ids)
