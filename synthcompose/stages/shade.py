@@ -65,23 +65,38 @@ def occluders_in_rows(depth: np.ndarray, bands: list[slice], ground: np.ndarray,
     (``unlabelled``: found surfaces leave the matcher's holes unnamed), the ground's specks
     closed (:data:`GROUND_SPECK`); elsewhere depth inf and ``ground`` as given (the compose does
     not read them)."""
-    out, ground = np.full(depth.shape, np.inf, np.float32), ground.copy()
+    out, given = np.full(depth.shape, np.inf, np.float32), ground
+    ground = ground.copy()
     if bands:
         r0, r1 = min(b.start for b in bands), max(b.stop for b in bands)
-        # the rows around them too, so that the closing below reads past the bands' edges
-        p0, p1 = max(r0 - GROUND_SPECK, 0), min(r1 + GROUND_SPECK, depth.shape[0])
-        rows, filled = occluder_fill(depth[p0:p1], ground[p0:p1])
-        near = ground[p0:p1] | (filled & unlabelled[p0:p1])
-        # the ground's depth without the matcher's specks: a few pixels half a pixel of
-        # disparity nearer than the road around them hid the inserted shadow there (bright dots
-        # in the shadow under a car); a closing (the farther of the nearest) over GROUND_SPECK
-        # pixels lifts such pits to the road's depth and keeps its slope; it never brings the
-        # ground nearer, so the real ground hides no more of an inserted object than before
-        kernel = np.ones((GROUND_SPECK, GROUND_SPECK), np.uint8)
-        closed = cv2.morphologyEx(np.minimum(rows, np.float32(1e4)), cv2.MORPH_CLOSE, kernel)
-        rows = np.where(near & np.isfinite(rows), closed, rows)
-        out[r0:r1], ground[r0:r1] = rows[r0 - p0:r1 - p0], near[r0 - p0:r1 - p0]
+        for a in range(r0, r1, OCCLUDER_ROWS):  # (each row's values are the same as at once)
+            b = min(a + OCCLUDER_ROWS, r1)
+            out[a:b], ground[a:b] = _occluder_rows(depth, given, unlabelled, a, b)
     return out, ground
+
+
+#: rows of :func:`occluders_in_rows` worked out at once (with :data:`GROUND_SPECK` rows either
+#: side): its temporaries take about 40 bytes a pixel of them (a near car's rows: 30 MB at once)
+OCCLUDER_ROWS = 256
+
+
+def _occluder_rows(depth: np.ndarray, ground: np.ndarray, unlabelled: np.ndarray, r0: int, r1: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`occluders_in_rows`' depth and ground in the rows [r0, r1)."""
+    # the rows around them too, so that the closing below reads past the rows' edges (holes are
+    # filled along rows)
+    p0, p1 = max(r0 - GROUND_SPECK, 0), min(r1 + GROUND_SPECK, depth.shape[0])
+    rows, filled = occluder_fill(depth[p0:p1], ground[p0:p1])
+    near = ground[p0:p1] | (filled & unlabelled[p0:p1])
+    # the ground's depth without the matcher's specks: a few pixels half a pixel of
+    # disparity nearer than the road around them hid the inserted shadow there (bright dots
+    # in the shadow under a car); a closing (the farther of the nearest) over GROUND_SPECK
+    # pixels lifts such pits to the road's depth and keeps its slope; it never brings the
+    # ground nearer, so the real ground hides no more of an inserted object than before
+    kernel = np.ones((GROUND_SPECK, GROUND_SPECK), np.uint8)
+    closed = cv2.morphologyEx(np.minimum(rows, np.float32(1e4)), cv2.MORPH_CLOSE, kernel)
+    rows = np.where(near & np.isfinite(rows), closed, rows)
+    return rows[r0 - p0:r1 - p0], near[r0 - p0:r1 - p0]
 
 
 def ground_occluders(depth: np.ndarray, bands: list[slice], labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -79,3 +79,24 @@ def test_level_ground_the_finder_left_unnamed_is_ground_to_the_compose():
     assert np.allclose(occluders[speck], flat[speck], atol=1e-3)
     _, ground_found = ground_occluders(depth, bands, found)
     assert not ground_found[footway].any()
+
+
+def test_rows_worked_out_a_few_at_a_time_give_the_same_values(monkeypatch):
+    """occluders_in_rows works OCCLUDER_ROWS rows at a time (its temporaries): the holes are
+    filled along rows and the closing reads GROUND_SPECK rows around, so any number of rows at
+    once gives the same depth and ground, holes, specks and unlabelled pixels included."""
+    import importlib
+
+    shade_module = importlib.import_module("synthcompose.stages.shade")  # (the package names its function shade)
+    rng = np.random.default_rng(3)
+    depth, ground, _, _, _ = _road_with_specks()
+    depth[rng.random((H, W)) < 0.15] = np.inf  # the matcher's holes
+    unlabelled = rng.random((H, W)) < 0.2
+    ground &= rng.random((H, W)) > 0.1
+    bands = [slice(4, 23), slice(17, 37)]
+    whole = occluders_in_rows(depth, bands, ground, unlabelled)
+    for rows in (1, 5, 13):
+        monkeypatch.setattr(shade_module, "OCCLUDER_ROWS", rows)
+        parts = occluders_in_rows(depth, bands, ground, unlabelled)
+        assert np.array_equal(parts[0], whole[0]) and np.array_equal(parts[1], whole[1]), rows
+    assert np.isfinite(whole[0][4:37]).any() and (whole[1][4:37] != ground[4:37]).any()  # holes filled, ground grown
