@@ -206,7 +206,7 @@ def _dark_lines(sm: np.ndarray, used: np.ndarray):
     cand = inside & (depth >= EDGE_STEP)
     if cand.sum() == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
-    d = cv2.GaussianBlur(depth.astype(np.float32), (0, 0), 1.0)
+    d = cv2.GaussianBlur(np.asarray(depth, np.float32), (0, 0), 1.0)
     # the line's direction: the Hessian's eigenvector of the larger eigenvalue (a ridge's)
     drr = cv2.Sobel(d, cv2.CV_32F, 0, 2)  # (dx, dy): along rows twice
     dcc = cv2.Sobel(d, cv2.CV_32F, 2, 0)

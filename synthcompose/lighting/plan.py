@@ -176,7 +176,7 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     inside = np.isfinite(u) & (u >= 0) & (u <= W - 1) & (v >= 0) & (v <= H - 1)
     u, v = np.where(inside, u, -10.0).astype(np.float32), np.where(inside, v, -10.0).astype(np.float32)
     lin = linear_at(rgb, u, v)
-    seen = cv2.remap(depth.astype(np.float32), u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+    seen = cv2.remap(np.asarray(depth, np.float32), u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
                      borderValue=float("nan"))
     plane_lab = cv2.remap(label_ids, u, v, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     ok = cv2.remap(good, u / _STEP, v / _STEP, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0) > 0

@@ -90,7 +90,7 @@ def stereo_noise(frame, ground_ids) -> StereoNoise:
         # every other column, differences over STEP pixels of the full image
         depth = frame.depth[:, ::2]
         with np.errstate(divide="ignore"):
-            disparity = (np.float32(fb) / depth).astype(np.float32)  # 0 where depth is inf
+            disparity = (np.float32(fb) / depth).astype(np.float32, copy=False)  # 0 where depth is inf
         disparity[disparity <= 0] = np.nan
         lut = np.zeros(256, bool)
         lut[np.asarray(list(ground_ids), int)] = True

@@ -41,7 +41,7 @@ NEAREST_PX = 5
 def nearest_depth(depth: np.ndarray) -> np.ndarray:
     """(H, W) float32: the nearest finite depth of ``depth`` within :data:`NEAREST_PX` pixels,
     0 where there is none (plane_ground.glsl's "unknown")."""
-    d = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(1e9)).astype(np.float32)
+    d = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(1e9)).astype(np.float32, copy=False)
     d = cv2.erode(d, np.ones((NEAREST_PX, NEAREST_PX), np.uint8))
     return np.ascontiguousarray(np.where(d < 1e9, d, 0.0), np.float32)
 
