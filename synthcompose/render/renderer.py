@@ -38,11 +38,16 @@ COLOUR_PASSES = ("irpv", "objc", "ir")
 NEAREST_PX = 5
 
 
-def nearest_depth(depth: np.ndarray) -> np.ndarray:
+def nearest_depth(depth: np.ndarray, rows: tuple[int, int] | None = None) -> np.ndarray:
     """(H, W) float32: the nearest finite depth of ``depth`` within :data:`NEAREST_PX` pixels,
-    0 where there is none (plane_ground.glsl's "unknown")."""
-    d = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(1e9)).astype(np.float32, copy=False)
-    d = cv2.erode(d, np.ones((NEAREST_PX, NEAREST_PX), np.uint8))
+    0 where there is none (plane_ground.glsl's "unknown"); ``rows`` [r0, r1): those rows alone,
+    the same values (read from the rows around them)."""
+    r0, r1 = rows or (0, depth.shape[0])
+    reach = NEAREST_PX // 2
+    p0, p1 = max(r0 - reach, 0), min(r1 + reach, depth.shape[0])
+    part = depth[p0:p1]
+    d = np.where(np.isfinite(part) & (part > 0), part, np.float32(1e9)).astype(np.float32, copy=False)
+    d = cv2.erode(d, np.ones((NEAREST_PX, NEAREST_PX), np.uint8))[r0 - p0:r1 - p0]
     return np.ascontiguousarray(np.where(d < 1e9, d, 0.0), np.float32)
 
 
@@ -139,9 +144,10 @@ class Renderer:
         cam = crop_camera(camera, roi)
         size = (roi.width, roi.height)
         rows, cols = roi.slices
-        photo_roi = None if photo is None else np.ascontiguousarray(photo[rows, cols])
-        sun_roi = None if sun_mask is None else np.ascontiguousarray(sun_mask[rows, cols], np.float32)
-        depth_roi = None if scene_depth is None else nearest_depth(scene_depth[rows, cols])
+        # the lit pass's inputs in the region (views: made for each band of a large one)
+        photo_roi = None if photo is None else photo[rows, cols]
+        sun_roi = None if sun_mask is None else sun_mask[rows, cols]
+        depth_roi = None if scene_depth is None else scene_depth[rows, cols]
         tex: dict[str, moderngl.Texture] = {}
         env = None
         if photo is not None:
@@ -152,13 +158,12 @@ class Renderer:
         self.shadows.draw(objects, light, self._gpu_model, lighting, self._lit.plane)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
                                             env, sun_mask is not None, depth_roi is not None)
-        self._shading.scene_depth(depth_roi is not None)
+        self._shading.scene_depth(scene_depth is not None)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         bands = row_bands(*size)
         if len(bands) == 1:  # the whole region at once; its inputs freed once drawn
-            inputs = [None if a is None else gl.texture(size, c, a, dtype=d)
-                      for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"), (depth_roi, 1, "f4"))]
+            inputs = self._inputs(size, (0, size[1]), photo_roi, sun_roi, depth_roi)
             bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1], inputs[2])
             tex.update(self._lit_passes(objects, lighting, size, view, proj))
             for t in inputs:
@@ -201,8 +206,7 @@ class Renderer:
         gl = self.gl
         drawn = with_apron(band, size[1])
         band_size = (size[0], drawn[1] - drawn[0])
-        inputs = [None if a is None else gl.texture(band_size, c, np.ascontiguousarray(a[drawn[0]:drawn[1]]), dtype=d)
-                  for a, c, d in ((photo_roi, 3, "f1"), (sun_roi, 1, "f4"), (depth_roi, 1, "f4"))]
+        inputs = self._inputs(band_size, drawn, photo_roi, sun_roi, depth_roi)
         bind_inputs(self._blank, self.shadows.textures, inputs[0], env, inputs[1], inputs[2])
         self._shading.viewport = viewport(drawn, *size)
         try:
@@ -214,6 +218,17 @@ class Renderer:
                   band[1] - band[0])
         for t in list(out.values()) + [t for t in inputs if t is not None]:
             gl.free(t)
+
+    def _inputs(self, size: tuple[int, int], drawn: tuple[int, int], photo_roi: np.ndarray | None,
+                sun_roi: np.ndarray | None, depth_roi: np.ndarray | None) -> list[moderngl.Texture | None]:
+        """The lit pass's input textures (photo, sun mask, nearest scene depth) of the region's
+        rows ``drawn`` [r0, r1) (``size``: their width and height), from the region's views
+        (None: no such input)."""
+        gl, (r0, r1) = self.gl, drawn
+        return [None if photo_roi is None else gl.texture(size, 3, np.ascontiguousarray(photo_roi[r0:r1]), dtype="f1"),
+                None if sun_roi is None else gl.texture(size, 1, np.ascontiguousarray(sun_roi[r0:r1], np.float32),
+                                                        dtype="f4"),
+                None if depth_roi is None else gl.texture(size, 1, nearest_depth(depth_roi, drawn), dtype="f4")]
 
     def _environment(self, photo: np.ndarray) -> moderngl.Texture:
         """The reflection texture of ``photo`` (:func:`~.lit.environment`), made once for the

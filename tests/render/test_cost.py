@@ -236,3 +236,20 @@ def test_linear_levels_of_the_rows_and_columns_sampled_give_the_whole_frames():
         u[2, :4] = np.round(u[2, :4]) + np.float32(1 / 64)  # near the fixed-point steps
         want = cv2.remap(whole, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         assert np.array_equal(linear_at(rgb, u, v), want), (lo, hi)
+
+
+def test_nearest_depth_of_some_rows_gives_the_whole_regions():
+    """The render makes the planes' nearest scene depth for each band's rows (render.renderer
+    nearest_depth with rows): the same values as over the whole region, at its edges too."""
+    from synthcompose.render.renderer import NEAREST_PX, nearest_depth
+
+    rng = np.random.default_rng(8)
+    depth = rng.uniform(2.0, 40.0, (53, 71)).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.3] = np.inf  # the matcher's holes
+    depth[rng.random(depth.shape) < 0.05] = 0.0
+    depth[20:20 + 2 * NEAREST_PX] = np.inf  # rows with nothing near: 0 there
+    region = depth[3:50, 5:66]  # a view, as the renderer passes it
+    whole = nearest_depth(region)
+    assert (whole == 0).any() and (whole > 0).any()
+    for rows in ((0, 1), (0, 9), (7, 8), (10, 31), (40, region.shape[0]), (0, region.shape[0])):
+        assert np.array_equal(nearest_depth(region, rows), whole[rows[0]:rows[1]]), rows
