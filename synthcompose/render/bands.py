@@ -25,9 +25,10 @@ from .gl import GLContext
 #: and 2^17 the same within this machine's spread, for 40-50 MB less peak memory per worker
 #: (docs/performance.md, fourth round)
 BAND_PIXELS = 1 << 17
-#: the compose's bands (:mod:`synthcompose.compose`): its outputs and the blur's layers, about
-#: 40 bytes a pixel, with the blur's reach drawn again around each band
-COMPOSE_BAND_PIXELS = 1 << 18
+#: the compose's bands (:mod:`synthcompose.compose`): its outputs, the real scene's layers, the
+#: blur's layers and the noise, about 70 bytes a pixel (18 MB at 2^18 pixels), with the blur's
+#: reach drawn again around each band; the same bytes out whatever the size
+COMPOSE_BAND_PIXELS = 1 << 17
 #: rows of the neighbouring bands each band draws too (NEIGHBOURS reads one pixel around)
 APRON = 1
 _READ_FRAMEBUFFER, _DRAW_FRAMEBUFFER = 0x8CA8, 0x8CA9
