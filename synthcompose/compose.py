@@ -253,11 +253,12 @@ class Composer:
         # the rows the band reads: its own, and the blur's reach around them (the LAYERS pass)
         l0, l1 = (max(y0 - radius, 0), min(y1 + radius, roi.height)) if radius else (y0, y1)
         layers = self._scene_layers(scene, roi, (l0, l1), rgb_only)
-        for name, tex in zip(SCENE_LAYERS, layers):
-            for p in (prog, self.layers_prog):
+        for p in (prog, self.layers_prog):
+            if "u_scene_origin" in p:
+                p["u_scene_origin"].value = (0, l0)
+            for name, tex in zip(SCENE_LAYERS, layers):
                 if name in p:
                     tex.use(p[name].value)
-                    p["u_scene_origin"].value = (0, l0)
         if noise is not None:  # compose.glsl reads u_noise at the band's own rows
             layers.append(gl.texture((w, y1 - y0), 3, noise.rows(y0, y1), dtype="f4"))
             layers[-1].use(prog["u_noise"].value)
