@@ -157,7 +157,7 @@ class Renderer:
         light = light_matrices(objects, lighting)  # half, sun, sky, under
         self.shadows.draw(objects, light, self._gpu_model, lighting, self._lit.plane)
         self._lit.uniforms = frame_uniforms(camera if eye is None else eye[0], view, proj, lighting, light,
-                                            env, sun_mask is not None, depth_roi is not None)
+                                            env, sun_mask is not None, scene_depth is not None)
         self._shading.scene_depth(scene_depth is not None)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
