@@ -24,22 +24,7 @@ from pycocotools import mask as coco_mask
 from synthcompose.errors import InputError, OutputError
 
 from .json_layout import dumps_json
-
-#: zlib level for every PNG we write (OpenCV's scale, 0-9). Low: PNG encoding dominates a batch.
-PNG_COMPRESSION = 1
-#: zlib strategy: run-length matches only (after PNG's row filters). On a 2048x1024 image set
-#: it is faster than the default for every output (the photo 140 -> 108 ms) and smaller too
-#: (3.5 -> 3.1 MB; the label images to half): `python benchmarks/bench_png.py`
-PNG_STRATEGY = cv2.IMWRITE_PNG_STRATEGY_RLE
-#: PNG row filters by name (:func:`encode_png`'s ``png_filter``). None: libpng tries the five
-#: on every row and keeps the one whose bytes look most compressible - at level 1 that choice
-#: costs more than the compression. One fixed filter per kind of image is cheaper for the same
-#: pixels: "paeth" on photos and disparity (the files' size as with the adaptive choice, 15-20 %
-#: less CPU), "up" on label images (flat regions: a third of the CPU, a few KB more);
-#: `python benchmarks/bench_png.py`
-PNG_FILTERS = {"none": cv2.IMWRITE_PNG_FILTER_NONE, "sub": cv2.IMWRITE_PNG_FILTER_SUB,
-               "up": cv2.IMWRITE_PNG_FILTER_UP, "avg": cv2.IMWRITE_PNG_FILTER_AVG,
-               "paeth": cv2.IMWRITE_PNG_FILTER_PAETH}
+from .png import PNG_FILTERS, encode_png  # noqa: F401  (the writer; PNG_FILTERS for its callers)
 
 PngKind = Literal["rgb8", "gray8", "gray16"]
 T, R = TypeVar("T"), TypeVar("R")
@@ -162,22 +147,6 @@ def read_png(path: str | Path, kind: PngKind) -> np.ndarray:
 def _describe(img: np.ndarray) -> str:
     channels = 1 if img.ndim == 2 else img.shape[2]
     return f"{img.dtype.itemsize * 8}-bit, {channels} channel(s), {img.shape[1]}x{img.shape[0]}"
-
-
-def encode_png(img: np.ndarray, png_filter: str | None = None) -> bytes:
-    """Encode ``(H, W)`` uint8/uint16, ``(H, W, 3)`` RGB or ``(H, W, 4)`` RGBA uint8 as PNG;
-    ``png_filter``: one row filter of :data:`PNG_FILTERS` for every row (None: libpng's choice
-    per row). The pixels are the same whatever the filter."""
-    img = np.ascontiguousarray(img)
-    if img.ndim == 3:  # OpenCV writes BGR(A)
-        img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR if img.shape[2] == 3 else cv2.COLOR_RGBA2BGRA)
-    params = [cv2.IMWRITE_PNG_COMPRESSION, PNG_COMPRESSION, cv2.IMWRITE_PNG_STRATEGY, PNG_STRATEGY]
-    if png_filter is not None:
-        params += [cv2.IMWRITE_PNG_FILTER, PNG_FILTERS[png_filter]]
-    ok, buf = cv2.imencode(".png", img, params)
-    if not ok:  # pragma: no cover - OpenCV only fails on unsupported dtypes
-        raise ValueError(f"cannot encode array of {img.dtype} {img.shape} as PNG")
-    return buf.tobytes()
 
 
 #: temporary files are named ``.<name>.<PART_TAG><random>.part``: the clean-up of a killed run

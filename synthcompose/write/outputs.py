@@ -16,9 +16,9 @@ from synthcompose.io.dataset import ImageSetId
 from synthcompose.io.files import map_threads, write_bytes_atomic, write_json, write_png
 from synthcompose.labels import colorize
 
-#: the PNG row filter of each kind of file written (fileio.PNG_FILTERS: the same pixels, less CPU)
-PNG_FILTER_OF = {"rgb": "paeth", "right": "paeth", "disparity": "paeth", "labelIds": "up", "instanceIds": "up",
-                 "color": "up"}
+#: the PNG row filter of each kind of file written (io.png.PNG_FILTERS: the same pixels whatever the
+#: filter; these give the smallest files for the CPU, `python benchmarks/bench_png.py`)
+PNG_FILTER_OF = {"rgb": "avg", "right": "avg", "disparity": "sub", "labelIds": "up", "instanceIds": "up", "color": "up"}
 
 
 def write_outputs(out_root: Path, ident: ImageSetId, composed: Composed, camera_json: bytes,

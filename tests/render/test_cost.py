@@ -9,8 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from synthcompose.io.files import PNG_FILTERS, dumps_json, encode_png
-from synthcompose.write.outputs import PNG_FILTER_OF
+from synthcompose.io.files import dumps_json
 
 
 def _reference_layout(obj, indent: str, out: list[str]) -> None:
@@ -62,20 +61,6 @@ def test_json_layout_is_the_element_by_element_one():
     for bad in ([1.0, float("nan")], [[1, 2], {3}], {"x": [float("inf")]}):
         with pytest.raises((ValueError, TypeError)):
             dumps_json(bad)
-
-
-@pytest.mark.parametrize("png_filter", [None, *PNG_FILTERS])
-def test_png_filters_keep_the_pixels(png_filter):
-    rng = np.random.default_rng(3)
-    images = [rng.integers(0, 256, (37, 53, 3), np.uint8), rng.integers(0, 65536, (37, 53), np.uint16),
-              np.repeat(rng.integers(0, 34, (37, 1), np.uint8), 53, axis=1),
-              rng.integers(0, 256, (37, 53, 4), np.uint8)]
-    for img in images:
-        back = cv2.imdecode(np.frombuffer(encode_png(img, png_filter), np.uint8), cv2.IMREAD_UNCHANGED)
-        if img.ndim == 3:
-            back = cv2.cvtColor(back, cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGBA)
-        assert back.dtype == img.dtype and np.array_equal(back, img)
-    assert set(PNG_FILTER_OF.values()) <= set(PNG_FILTERS)
 
 
 # ------------------------------------------------------------------ the renderer's cheaper paths
