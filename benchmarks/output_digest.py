@@ -1,4 +1,6 @@
-"""sha256 of every output file of the main job, to show that a change leaves the outputs byte-identical.
+"""sha256 of every output file of the main job, to show that a change leaves the outputs the same:
+a PNG by its pixels (its shape, sample type and decoded samples: the same image whatever encoder
+wrote it), every other file by its bytes.
 
     python benchmarks/output_digest.py WORK --demo --generated 6 --root REAL_ROOT ... > sums.txt
     (change the code)
@@ -21,6 +23,9 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+
+import cv2
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 SKIPPED = {"summary.json"}
@@ -60,10 +65,19 @@ def run(name: str, root: Path, work: Path) -> Path:
     return out
 
 
+def file_digest(path: Path) -> str:
+    """sha256 of a PNG's pixels (shape, dtype and samples as decoded), of any other file's bytes."""
+    data = path.read_bytes()
+    if path.suffix == ".png":
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        data = f"png {img.shape} {img.dtype}\n".encode() + np.ascontiguousarray(img).tobytes()
+    return hashlib.sha256(data).hexdigest()
+
+
 def digest(out: Path):
     for path in sorted(p for p in out.rglob("*") if p.is_file()):
         if path.name not in SKIPPED:
-            yield hashlib.sha256(path.read_bytes()).hexdigest(), path.relative_to(out).as_posix()
+            yield file_digest(path), path.relative_to(out).as_posix()
 
 
 def main(argv=None) -> int:
