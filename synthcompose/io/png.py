@@ -8,7 +8,8 @@ times faster than zlib at its fastest level with a similar ratio. Together about
 CPU than OpenCV's libpng at zlib level 1 for the files of an image set, for files about a fifth
 larger: ``python benchmarks/bench_png.py``.
 
-Decoding stays with OpenCV (``files.read_png``): any decoder reads these files.
+Decoding is libspng's (photos) and OpenCV's (``files.read_png``); libspng does not check the
+chunks' CRCs, :func:`damaged_chunk` does that first.
 """
 from __future__ import annotations
 
@@ -32,6 +33,24 @@ _COLOUR_TYPE = {1: 0, 3: 2, 4: 6}  # channels -> PNG colour type: greyscale, RGB
 
 def _chunk(kind: bytes, body: bytes) -> bytes:
     return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", isal_zlib.crc32(body, isal_zlib.crc32(kind)))
+
+
+def damaged_chunk(data: bytes) -> str | None:
+    """What is wrong with the chunk layout of a PNG file's bytes (a chunk cut short, a CRC that
+    does not match, no IEND), or None when every chunk is whole."""
+    at, view = 8, memoryview(data)
+    while at + 12 <= len(data):
+        (n,) = struct.unpack_from(">I", data, at)
+        kind = bytes(view[at + 4:at + 8])
+        if at + 12 + n > len(data):
+            return f"its {kind.decode('latin-1')} chunk is cut short"
+        (crc,) = struct.unpack_from(">I", data, at + 8 + n)
+        if isal_zlib.crc32(view[at + 8:at + 8 + n], isal_zlib.crc32(kind)) != crc:
+            return f"its {kind.decode('latin-1')} chunk fails its CRC check"
+        if kind == b"IEND":
+            return None
+        at += 12 + n
+    return "it ends before its IEND chunk"
 
 
 def filtered_rows(img: np.ndarray, png_filter: str) -> np.ndarray:

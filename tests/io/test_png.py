@@ -89,3 +89,36 @@ def test_refuses_what_png_cannot_hold():
 
 def test_the_writer_names_known_filters():
     assert set(PNG_FILTER_OF.values()) <= set(PNG_FILTERS) and DEFAULT_FILTER in PNG_FILTERS
+
+
+def test_photos_read_as_opencv_reads_them(tmp_path):
+    """read_png decodes 8-bit RGB(A) photos with libspng: the pixels OpenCV gives, alpha dropped,
+    with and without ancillary chunks (gamma, text) libpng and libspng both leave alone."""
+    from synthcompose.errors import InputError
+    from synthcompose.io.files import read_png
+
+    rng = np.random.default_rng(11)
+    for i, img in enumerate([rng.integers(0, 256, (31, 45, 3), np.uint8), rng.integers(0, 256, (31, 45, 4), np.uint8)]):
+        for j, info in enumerate([{}, {"gamma": 0.45455}]):
+            path = tmp_path / f"p{i}{j}.png"
+            Image.fromarray(img).save(path, **info)
+            want = cv2.cvtColor(cv2.imread(str(path), cv2.IMREAD_UNCHANGED),
+                                cv2.COLOR_BGR2RGB if img.shape[2] == 3 else cv2.COLOR_BGRA2RGB)
+            got = read_png(path, "rgb8")
+            assert got.shape == img.shape[:2] + (3,) and got.flags.c_contiguous and np.array_equal(got, want)
+    good = encode_png(rng.integers(0, 256, (31, 45, 3), np.uint8), "avg")
+    for name, bad in [("cut.png", good[: len(good) // 2]), ("crc.png", good[:60] + bytes([good[60] ^ 1]) + good[61:])]:
+        (tmp_path / name).write_bytes(bad)
+        with pytest.raises(InputError, match=name):
+            read_png(tmp_path / name, "rgb8")
+
+
+def test_damaged_chunk_names_what_is_wrong():
+    from synthcompose.io.png import damaged_chunk
+
+    good = encode_png(np.arange(600, dtype=np.uint8).reshape(20, 30) % 251, "up")
+    assert damaged_chunk(good) is None and damaged_chunk(good + b"trailing bytes") is None
+    assert "IEND" in damaged_chunk(good[:-12])
+    assert "cut short" in damaged_chunk(good[:-20])
+    i = good.index(b"IDAT") + 10
+    assert "IDAT chunk fails its CRC" in damaged_chunk(good[:i] + bytes([good[i] ^ 4]) + good[i + 1:])
