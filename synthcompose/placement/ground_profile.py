@@ -8,6 +8,8 @@ import numpy as np
 
 from synthcompose.camera import Camera
 
+from .medians import group_medians
+
 #: the car's own lane ahead: within this far left or right of the camera's line, metres
 LANE_HALF = 1.2
 #: the road's crown is fitted within this far across from the car, metres
@@ -37,25 +39,20 @@ def ground_profile(disp: np.ndarray, plane: np.ndarray, cam: Camera) -> np.ndarr
     row of d_g / d_plane, so slopes and pitch are followed but single rows are not."""
     h, w = disp.shape
     centre = np.abs(np.arange(w) - w / 2) < 0.35 * w
-    rows, ratio, weight = [], [], []
-    for r in range(h):
-        p = plane[r, w // 2]
-        if p <= 1.0:
-            continue
-        d = disp[r, centre]
-        pr = plane[r, centre]
-        near = np.isfinite(d) & (np.abs(d / pr - 1) < 0.12)
-        if near.sum() < 0.1 * centre.sum():
-            continue
-        rows.append(r)
-        ratio.append(float(np.median(d[near] / pr[near])))
-        weight.append(float(near.sum()))
+    d, pr = disp[:, centre], plane[:, centre]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = d / pr
+        near = np.isfinite(d) & (np.abs(q - 1) < 0.12)
+    counts = near.sum(axis=1)
+    taken = np.flatnonzero(~(plane[:, w // 2] <= 1.0) & (counts >= 0.1 * centre.sum()))  # rows with support
     out = np.full(h, np.nan)
-    if len(rows) < 10:
+    if len(taken) < 10:
         ok = plane[:, w // 2] > 1.0
         out[ok] = 1.0
         return out
-    rows, ratio, weight = np.array(rows, float), np.array(ratio), np.sqrt(np.array(weight))
+    near[np.setdiff1d(np.arange(h), taken)] = False
+    ratio = group_medians(np.nonzero(near)[0], q[near], h)[taken]  # each row's median ratio
+    rows, weight = taken.astype(float), np.sqrt(counts[taken].astype(float))
     keep = np.ones(len(rows), bool)
     coef = np.array([0.0, 0.0, 1.0])
     for _ in range(4):
@@ -75,25 +72,29 @@ def road_bends(disp: np.ndarray, plane: np.ndarray, fit: np.ndarray, cam: Camera
     fit, its offset smoothed over PROFILE_ROWS rows (a road bends over metres, never row by
     row); 0 where no row has support. ``cam``: the working camera."""
     h, w = disp.shape
-    cols = np.arange(w)
-    rows, off = [], []
-    for r in range(h):
-        p = plane[r, int(round(cam.u0))] if 0 <= cam.u0 < w else plane[r, w // 2]
-        if p <= 1.0:
-            continue
-        half = LANE_HALF * p * fit[r] / cam.baseline  # pixels: LANE_HALF at the ground's depth
-        lane = np.abs(cols - cam.u0) < half
-        rr = disp[r, lane] / plane[r, lane]
-        near = np.isfinite(rr) & (np.abs(rr / fit[r] - 1) < PROFILE_FOLLOW)
-        if near.sum() < max(5, 0.3 * lane.sum()):
-            continue
-        rows.append(r)
-        off.append(float(np.median(rr[near])) - fit[r])
+    p = plane[:, int(round(cam.u0))] if 0 <= cam.u0 < w else plane[:, w // 2]
+    half = LANE_HALF * p * fit / cam.baseline  # pixels: LANE_HALF at the ground's depth, per row
+    half[p <= 1.0] = 0.0  # rows the ground does not reach: no lane
+    lane = np.abs(np.arange(w) - cam.u0)[None, :] < half[:, None]
+    span = np.flatnonzero(lane.any(axis=0))
+    if len(span) == 0:
+        return np.zeros(h)
+    c0, c1 = span[0], span[-1] + 1  # the columns some row's lane takes
+    lane = lane[:, c0:c1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rr = disp[:, c0:c1] / plane[:, c0:c1]
+        near = lane & np.isfinite(rr) & (np.abs(rr / fit[:, None] - 1) < PROFILE_FOLLOW)
+    counts = near.sum(axis=1)
+    rows = np.flatnonzero(~(p <= 1.0) & (counts >= np.maximum(5, 0.3 * lane.sum(axis=1))))
     if len(rows) < PROFILE_ROWS:
         return np.zeros(h)
-    off = np.array(off)
+    near[np.setdiff1d(np.arange(h), rows)] = False
+    off = group_medians(np.nonzero(near)[0], rr[near], h)[rows] - fit[rows]
     k = PROFILE_ROWS // 2
-    med = np.array([np.median(off[max(0, i - k):i + k + 1]) for i in range(len(off))])
+    # the median of the rows within k places of each (fewer at the ends)
+    at = np.arange(len(off))[:, None] + np.arange(-k, k + 1)[None, :]
+    inside = (at >= 0) & (at < len(off))
+    med = group_medians(np.nonzero(inside)[0], off[at[inside]], len(off))
     mean = np.convolve(np.pad(med, k, mode="edge"), np.ones(2 * k + 1) / (2 * k + 1), mode="valid")
     return np.interp(np.arange(h), rows, mean, left=0.0, right=0.0)
 

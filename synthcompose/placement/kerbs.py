@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .medians import group_medians
+
 #: the bands of depth (metres ahead) in which a kerb is looked for; a kerb is one two neighbouring
 #: bands see (the camera sees a kerb 2-4 m off its line from 4 m on, one of a wide street's
 #: 4-8 m off from about 10 m on), its line through the two offsets at the bands' middles
@@ -65,16 +67,7 @@ def binned_profile(height: np.ndarray, ok: np.ndarray, key: np.ndarray, lo_m: fl
     h = height[ok]
     lo, hi = int(round(lo_m / BIN)), int(round(hi_m / BIN))
     keep = (bins >= lo) & (bins <= hi)
-    bins, h = bins[keep] - lo, h[keep]
-    order = np.argsort(bins, kind="stable")
-    bins, h = bins[order], h[order]
-    starts = np.searchsorted(bins, np.arange(hi - lo + 2))
-    med = np.full(hi - lo + 1, np.nan)
-    for k in range(hi - lo + 1):
-        a, b = starts[k], starts[k + 1]
-        if b - a >= least:
-            med[k] = np.median(h[a:b])
-    return (np.arange(lo, hi + 1) * BIN), med
+    return (np.arange(lo, hi + 1) * BIN), group_medians(bins[keep] - lo, h[keep], hi - lo + 1, least)
 
 
 def kerb_in(offsets: np.ndarray, med: np.ndarray, side: int) -> tuple[float, float] | None:
