@@ -26,7 +26,7 @@ from cityscapesscripts.helpers.labels import name2label
 
 from synthcompose.camera import Camera
 from synthcompose.errors import InputError
-from synthcompose.labels import KNOWN_IDS
+from synthcompose.labels import KNOWN_IDS, byte_counts
 
 from .files import decode_disparity, map_threads, read_json, read_png
 from .vehicle import Vehicle, read_vehicle
@@ -266,7 +266,7 @@ def read_image_set(root: Path, ident: ImageSetId, right: bool = False) -> ImageS
     # Cityscapes' test split ships placeholder labels: nothing but ids 0-3 (unlabeled, ego
     # vehicle, rectification border, out of roi)
     labelled = labelled and bool((labels > 3).any())
-    unknown = np.flatnonzero(np.bincount(labels.ravel(), minlength=256)[~KNOWN_IDS])
+    unknown = np.flatnonzero(byte_counts(labels)[~KNOWN_IDS])
     if len(unknown):
         bad = np.arange(256)[~KNOWN_IDS][unknown]
         raise InputError(label_path, f"holds label ids Cityscapes does not define: {', '.join(map(str, bad[:10]))}")

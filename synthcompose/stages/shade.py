@@ -19,7 +19,7 @@ from synthcompose.colour import srgb_to_linear
 from synthcompose.compose import Composed, Composer, SceneLayers, label_mask
 from synthcompose.geometry.depth import Frame, occluder_fill
 from synthcompose.io.files import DISPARITY_SCALE
-from synthcompose.labels import label_id
+from synthcompose.labels import byte_counts, label_id
 from synthcompose.lighting.camera_match import object_tones
 from synthcompose.look.appearance import Appearance, appearance_rng, draw_appearance
 from synthcompose.placement import GROUND_LEVEL, Placement
@@ -197,7 +197,7 @@ def shade(renderer: Renderer, composer: Composer, o: ShadeOptions, prep: Prepare
         amodal = [None] * n  # amodal 2D box of each object
         kept, roi = {}, None
         if passes is not None:
-            rendered = np.bincount(ids.ravel(), minlength=n + 1)
+            rendered = byte_counts(ids)[:n + 1]  # (object indices 1..n)
             amodal = amodal_boxes(ids, passes.roi, n)
             kept = {k: passes.read(k).copy() for k in keep if k in passes.textures}
             roi = (passes.roi.x0, passes.roi.y0, passes.roi.width, passes.roi.height)

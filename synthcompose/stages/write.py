@@ -9,12 +9,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
 
-import numpy as np
-
 from synthcompose.errors import SynthComposeError
 from synthcompose.io.dataset import ImageSetId
 from synthcompose.io.files import encode_rle
-from synthcompose.labels import label_id
+from synthcompose.labels import byte_counts, label_id
 from synthcompose.record import ObjectPose, ObjectRecord, Status
 from synthcompose.render import mask_box
 from synthcompose.write.annotations import write_frame_annotations
@@ -81,7 +79,7 @@ def check_visible(s: Shaded) -> None:
     """Refuse to write an image set with an object no pixel of which is seen (hidden, too far,
     or a model that draws nothing): it would be annotated with nothing, yet change the photo
     (its shadow). Raised before any file is written; the image set fails, naming the object."""
-    counts = np.bincount(s.composed.visible.ravel(), minlength=len(s.placed.objects) + 1)
+    counts = byte_counts(s.composed.visible)
     for k, obj in enumerate(s.placed.objects, start=1):
         if counts[k] == 0:
             raise SynthComposeError(f"{obj.spec.model}: object {k} ({obj.spec.name!r}, {obj.spec.class_name}) has 0 "

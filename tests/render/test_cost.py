@@ -238,3 +238,16 @@ def test_nearest_depth_of_some_rows_gives_the_whole_regions():
     assert (whole == 0).any() and (whole > 0).any()
     for rows in ((0, 1), (0, 9), (7, 8), (10, 31), (40, region.shape[0]), (0, region.shape[0])):
         assert np.array_equal(nearest_depth(region, rows), whole[rows[0]:rows[1]]), rows
+
+
+def test_byte_counts_are_bincounts():
+    """labels.byte_counts (OpenCV's histogram) gives np.bincount's counts of uint8 arrays."""
+    from synthcompose.labels import byte_counts
+
+    rng = np.random.default_rng(4)
+    for img in (rng.integers(0, 256, (1024, 2048), np.uint8), rng.integers(0, 3, (37, 53), np.uint8),
+                rng.integers(0, 256, (60, 80), np.uint8)[::3, 1::2], np.full((5, 7), 255, np.uint8),
+                np.zeros((0, 4), np.uint8), rng.integers(0, 256, (3, 4, 5), np.uint8)):
+        assert np.array_equal(byte_counts(img), np.bincount(img.ravel(), minlength=256))
+    with pytest.raises(TypeError):
+        byte_counts(np.zeros(4, np.uint16))
