@@ -263,3 +263,21 @@ def test_label_mask_is_the_tables_lookup():
             want = np.isin(labels, ids)
             got = label_mask(labels, ids)
             assert got.dtype == bool and got.shape == labels.shape and np.array_equal(got, want)
+
+
+def test_rle_is_pycocotools_of_the_fortran_mask():
+    """io.files.encode_rle (OpenCV's transpose) gives what pycocotools gives the mask cast to
+    uint8 in Fortran order, and decode_rle reads it back."""
+    from pycocotools import mask as coco_mask
+
+    from synthcompose.io.files import decode_rle, encode_rle
+
+    rng = np.random.default_rng(8)
+    big = rng.random((90, 130)) < 0.3
+    for mask in (big, big[::2, 3:], big.astype(np.uint8), np.zeros((1, 1), bool), np.ones((4, 1), bool),
+                 np.zeros((0, 5), bool), (rng.integers(0, 3, (20, 30))).astype(np.int32)):
+        rle = coco_mask.encode(np.asfortranarray(mask.astype(np.uint8)))
+        want = {"size": [int(v) for v in rle["size"]], "counts": rle["counts"].decode("ascii")}
+        assert encode_rle(mask) == want
+        if mask.max(initial=0) <= 1:  # (RLE holds binary masks)
+            assert np.array_equal(decode_rle(encode_rle(mask)), mask.astype(bool))
