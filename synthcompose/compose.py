@@ -95,17 +95,23 @@ class SceneLayers:
 NOISE_TILE = 64
 
 
-def frame_noise(seed: int, rows: slice, cols: slice, tiles: dict | None = None) -> np.ndarray:
+def frame_noise(seed: int, rows: slice, cols: slice, tiles: dict | None = None,
+                needed: frozenset | None = None) -> np.ndarray:
     """(h, w, 3) float32 standard normal noise of a region of the frame, each pixel's value fixed
     by its place in the frame and the seed, not by the region: a region a pixel larger (a pose
     a hair different on another CPU's arithmetic) keeps every other pixel's noise, and the
     bands of a large region join without a seam. Drawn per :data:`NOISE_TILE` square tile;
     ``tiles``: the tiles drawn so far, (tile row, tile column) -> tile, taken from and added to
-    (the compose's bands share the tiles their edges cut)."""
+    (the compose's bands share the tiles their edges cut); ``needed``: the tiles (tile row, tile
+    column) the caller reads (:func:`noise_tiles_read`), the others left 0 (None: every tile)."""
     t = NOISE_TILE
     out = np.empty((rows.stop - rows.start, cols.stop - cols.start, 3), np.float32)
+    if needed is not None:
+        out[:] = 0.0
     for ty in range(rows.start // t, (rows.stop - 1) // t + 1):
         for tx in range(cols.start // t, (cols.stop - 1) // t + 1):
+            if needed is not None and (ty, tx) not in needed:
+                continue
             tile = None if tiles is None else tiles.get((ty, tx))
             if tile is None:
                 tile = np.random.default_rng([int(seed), ty, tx]).standard_normal((t, t, 3), np.float32)
@@ -118,18 +124,36 @@ def frame_noise(seed: int, rows: slice, cols: slice, tiles: dict | None = None) 
     return out
 
 
+def noise_tiles_read(alpha: np.ndarray, roi: Roi, radius: int) -> frozenset:
+    """The noise tiles (tile row, tile column of the frame) that compose.glsl can read in the
+    region ``roi``: it adds the noise where the object covers the pixel (cover > 0), which,
+    blurred, is within ``radius`` pixels (the region's own, its edges clamped) of a pixel of
+    non-zero ``alpha`` (the region's coverage pass), and nowhere else."""
+    covered = (alpha != 0).astype(np.uint8)
+    if radius:  # (outside the region counts as uncovered)
+        covered = cv2.dilate(covered, np.ones((2 * radius + 1,) * 2, np.uint8), borderType=cv2.BORDER_CONSTANT,
+                             borderValue=0)
+    t = NOISE_TILE
+    oy, ox = roi.y0 % t, roi.x0 % t
+    th, tw = -(-(oy + roi.height) // t), -(-(ox + roi.width) // t)
+    grid = np.zeros((th * t, tw * t), np.uint8)
+    grid[oy:oy + roi.height, ox:ox + roi.width] = covered
+    rows, cols = np.nonzero(grid.reshape(th, t, tw, t).max(axis=(1, 3)))
+    return frozenset(zip((rows + roi.y0 // t).tolist(), (cols + roi.x0 // t).tolist()))
+
+
 class _BandNoise:
     """The camera-match noise of a region (:func:`frame_noise`), made for one band of its rows at
     a time; the tiles a band's last rows cut are kept for the next band's first."""
 
-    def __init__(self, seed: int, rows: slice, cols: slice) -> None:
-        self.seed, self.top, self.cols = seed, rows.start, cols
+    def __init__(self, seed: int, rows: slice, cols: slice, needed: frozenset | None = None) -> None:
+        self.seed, self.top, self.cols, self.needed = seed, rows.start, cols, needed
         self.tiles: dict[tuple[int, int], np.ndarray] = {}
 
     def rows(self, y0: int, y1: int) -> np.ndarray:
         """(y1 - y0, w, 3) float32: the noise of the region's rows [y0, y1), in order (each band
         below the last one)."""
-        out = frame_noise(self.seed, slice(self.top + y0, self.top + y1), self.cols, self.tiles)
+        out = frame_noise(self.seed, slice(self.top + y0, self.top + y1), self.cols, self.tiles, self.needed)
         below = (self.top + y1) // NOISE_TILE  # the first tile row the next band can reach
         for key in [k for k in self.tiles if k[0] < below]:
             del self.tiles[key]
@@ -228,7 +252,10 @@ class Composer:
         # the noise and the outputs exist for one band at a time (with the rows around it the
         # blur reads); the noise is seeded in NumPy (the same seed gives the same bytes on any
         # machine), each of its tiles drawn once
-        noise = _BandNoise(match.seed, rows, cols) if noise_on else None
+        noise = None
+        if noise_on:  # only the tiles the shader reads are drawn (noise_tiles_read)
+            needed = noise_tiles_read(passes.read("alpha", widen=False), roi, match.blur_radius)
+            noise = _BandNoise(match.seed, rows, cols, needed)
         for y0, y1 in row_bands(w, h, COMPOSE_BAND_PIXELS):
             self._band(prog, vao, scene, roi, (y0, y1), match.blur_radius, rgb_only, out, noise)
         return out
