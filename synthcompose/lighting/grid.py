@@ -178,6 +178,12 @@ def _normals(p: np.ndarray, label: np.ndarray, pure: np.ndarray, camera: Camera)
     return out
 
 
+def _norm(v: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(v, axis=-1)`` of (N, 3) vectors, its sum in its order, column by column
+    (NumPy's sum over an axis of 3 is slow)."""
+    return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
+
+
 def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
                   camera: Camera) -> np.ndarray:
     """(N, 3) normals at pixels (r, c) from the photo's own pixels 1 and 2 apart, with the tests
@@ -208,11 +214,11 @@ def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np
         du, dv = a_u - b_u, a_v - b_v
         ok = np.ones(len(r), bool)
         for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
-            ok &= np.linalg.norm(a + b - 2 * p0, axis=-1) <= 0.08 * np.linalg.norm(span, axis=-1) + 1e-3
+            ok &= _norm(a + b - 2 * p0) <= 0.08 * _norm(span) + 1e-3
         idx, r, c, p0 = idx[ok], r[ok], c[ok], p0[ok]
         normals = [n[ok] for n in normals]
         n = np.cross(du[ok], dv[ok])
-        normals.append(n / np.maximum(np.linalg.norm(n, axis=-1), 1e-12)[:, None])
+        normals.append(n / np.maximum(_norm(n), 1e-12)[:, None])
     n1, n2 = normals
     ok = np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
     n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)  # facing the camera

@@ -281,3 +281,27 @@ def test_rle_is_pycocotools_of_the_fortran_mask():
         assert encode_rle(mask) == want
         if mask.max(initial=0) <= 1:  # (RLE holds binary masks)
             assert np.array_equal(decode_rle(encode_rle(mask)), mask.astype(bool))
+
+
+def test_sums_over_three_channels_column_by_column_are_numpys():
+    """grid._norm, road_coloured's and camera_match._hsv_vs's column-by-column sums, maxima and
+    minima give NumPy's reductions over the last axis bit for bit."""
+    from synthcompose.lighting.camera_match import _hsv_vs
+    from synthcompose.lighting.grid import _norm
+    from synthcompose.placement.road_colour import road_coloured
+
+    rng = np.random.default_rng(10)
+    for dtype in (np.float32, np.float64):
+        v = rng.normal(size=(5000, 3)).astype(dtype)
+        assert np.array_equal(_norm(v), np.linalg.norm(v, axis=-1))
+    lab = rng.normal(128, 20, (64, 96, 3)).astype(np.float32)
+    models = [(np.array([120.0, 128.0, 131.0]), np.array([6.0, 2.0, 3.0])),
+              (np.array([100.5, 127.0, 129.0], np.float32), np.array([9.0, 1.5, 2.5], np.float32))]
+    want = np.zeros(lab.shape[:2], bool)
+    for med, spread in models:
+        want |= np.sqrt((((lab - med) / spread) ** 2).sum(axis=-1) / 3.0) < 3.0
+    assert np.array_equal(road_coloured(lab, models), want)
+    srgb = np.clip(rng.normal(0.5, 0.4, (4000, 3)), 0, 1)
+    mx, mn = srgb.max(axis=1), srgb.min(axis=1)
+    v, s = _hsv_vs(srgb)
+    assert np.array_equal(v, 255.0 * mx) and np.array_equal(s, 255.0 * np.where(mx > 0, (mx - mn) / np.maximum(mx, 1e-9), 0.0))
