@@ -170,7 +170,7 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
         instance_ids = instance_ids.astype(np.int64 if instance_ids.size and instance_ids.max() >= 2 ** 31 else np.int32)
     # each pixel's segment: its instance id, or its label id (a class without instances, a group)
     segment = np.where(instance_ids >= INSTANCE_FACTOR, instance_ids, label_ids)
-    values = np.flatnonzero(np.bincount(segment.ravel()))
+    values = _present(segment)
     lookup = np.zeros(int(values[-1]) + 1, np.int32)
     lookup[values] = np.arange(1, values.size + 1)  # 1 + the segment's place in values: find_objects' labels
     index = lookup[segment]
@@ -199,7 +199,7 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
             continue
         name = label.name + ("group" if label.hasInstances else "")
         # a region: each 8-connected part, its outline with the holes filled
-        n, comp, stats, _ = cv2.connectedComponentsWithStats(own_box.astype(np.uint8), connectivity=8)
+        n, comp, stats, _ = cv2.connectedComponentsWithStats(own_box.view(np.uint8), connectivity=8)
         for c in range(1, n):
             x, y, w, h = (int(v) for v in stats[c, :4])
             own = comp[y:y + h, x:x + w] == c
@@ -215,6 +215,15 @@ def frame_polygons(label_ids: np.ndarray, instance_ids: np.ndarray) -> list[dict
                             "background": label.id == 0})
     order = _drawing_order(entries, owner, [chains[c] for c in sorted(chains)])
     return _with_skipped_ids([entries[i] for i in order])
+
+
+def _present(segment: np.ndarray) -> np.ndarray:
+    """The values ``segment`` holds, ascending (``np.flatnonzero(np.bincount(segment.ravel()))``;
+    16-bit segments by OpenCV's histogram, without bincount's int64 copy of the frame)."""
+    if segment.dtype == np.uint16 and segment.ndim == 2 and segment.size:
+        hist = cv2.calcHist([np.ascontiguousarray(segment)], [0], None, [1 << 16], [0, 1 << 16])
+        return np.flatnonzero(hist.ravel())
+    return np.flatnonzero(np.bincount(segment.ravel()))
 
 
 def _with_skipped_ids(ordered: list[dict[str, Any]]) -> list[dict[str, Any]]:

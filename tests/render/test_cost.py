@@ -305,3 +305,14 @@ def test_sums_over_three_channels_column_by_column_are_numpys():
     mx, mn = srgb.max(axis=1), srgb.min(axis=1)
     v, s = _hsv_vs(srgb)
     assert np.array_equal(v, 255.0 * mx) and np.array_equal(s, 255.0 * np.where(mx > 0, (mx - mn) / np.maximum(mx, 1e-9), 0.0))
+
+
+def test_the_polygons_segment_values_are_bincounts():
+    from synthcompose.write.polygons import _present
+
+    rng = np.random.default_rng(12)
+    seg = rng.integers(0, 34, (200, 300)).astype(np.uint16)
+    seg[20:40, 30:90] = 26001
+    seg[0, 0] = 65535
+    for s in (seg, seg.astype(np.int32), seg[::3, 1::2], np.full((4, 4), 7, np.uint16)):
+        assert np.array_equal(_present(s), np.flatnonzero(np.bincount(s.ravel())))
