@@ -316,3 +316,18 @@ def test_the_polygons_segment_values_are_bincounts():
     seg[0, 0] = 65535
     for s in (seg, seg.astype(np.int32), seg[::3, 1::2], np.full((4, 4), 7, np.uint16)):
         assert np.array_equal(_present(s), np.flatnonzero(np.bincount(s.ravel())))
+
+
+def test_nearest_in_row_is_the_where_and_accumulate():
+    from synthcompose.geometry.depth import nearest_in_row
+
+    rng = np.random.default_rng(13)
+    for shape, p in [((64, 200), 0.5), ((37, 53), 0.05), ((5, 1), 0.5), ((3, 0), 0.5), ((1, 7), 0.0), ((2, 9), 1.0)]:
+        mask = rng.random(shape) < p
+        for m in (mask, mask[:, 1:] if shape[1] > 1 else mask):
+            h, w = m.shape
+            cols = np.broadcast_to(np.arange(w, dtype=np.int32), (h, w))
+            left = np.maximum.accumulate(np.where(m, cols, np.int32(-1)), axis=1)
+            right = np.minimum.accumulate(np.where(m, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
+            got = nearest_in_row(m)
+            assert got[0].dtype == left.dtype and np.array_equal(got[0], left) and np.array_equal(got[1], right)
