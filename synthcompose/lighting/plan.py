@@ -113,17 +113,29 @@ def linear_at(rgb: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
 
+_GROUND_TABLE = np.isin(np.arange(256), GROUND_IDS)
+
+
+def _is_ground(labels: np.ndarray) -> np.ndarray:
+    """``np.isin(labels, GROUND_IDS)``, by a 256-entry table for uint8 labels."""
+    return _GROUND_TABLE[labels] if labels.dtype == np.uint8 else np.isin(labels, GROUND_IDS)
+
+
 def fit_road_plane(points: np.ndarray, labels: np.ndarray, camera: Camera) -> tuple[float, float, float]:
     """(a, b, c): the plane z = a + b (x - x_c) + c (y - y_c) through the ground points 4-25 m
     away (labels ``labels`` in :data:`GROUND_IDS`; road preferred), robustly (the road, not the
     sidewalks above it); the camera's own ground plane (0, 0, 0) without enough of them."""
-    rel = points[..., :2] - np.array([camera.x, camera.y], np.float32)
-    dist = np.hypot(rel[..., 0], rel[..., 1])
-    sel = np.isin(labels, GROUND_IDS) & (dist > 4.0) & (dist < 25.0) & np.isfinite(dist)
-    road = sel & (labels == GROUND_IDS[1])
+    # the ground's points alone (in the grid's order), then their distance: the values the whole
+    # grid's would give them, for the third of the grid that is ground
+    at = np.flatnonzero(_is_ground(labels))
+    pts = points.reshape(-1, 3)[at]
+    rel = pts[:, :2] - np.array([camera.x, camera.y], np.float32)
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    sel = (dist > 4.0) & (dist < 25.0) & np.isfinite(dist)
+    road = sel & (labels.reshape(-1)[at] == GROUND_IDS[1])
     if road.sum() > 2000:
         sel = road
-    p, r = points[sel][::5].astype(np.float64), rel[sel][::5].astype(np.float64)
+    p, r = pts[sel][::5].astype(np.float64), rel[sel][::5].astype(np.float64)
     if len(p) < 200:
         return 0.0, 0.0, 0.0
     A = np.column_stack([np.ones(len(p)), r[:, 0], r[:, 1]])
@@ -148,7 +160,7 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     a, b, c = fit_road_plane(pts, lab, camera)
     height = pts[..., 2] - (a + b * (pts[..., 0] - camera.x) + c * (pts[..., 1] - camera.y))
     known = np.isfinite(height)
-    ground = np.isin(lab, GROUND_IDS)
+    ground = _is_ground(lab)
     if not labelled:  # ground the colour model left out (shadows, patches): level pixels
         ground |= (lab == 0) & known & (np.abs(height) < STANDING_HEIGHT)
     standing = known & ~ground & (height > STANDING_HEIGHT) & (height < 4.0)

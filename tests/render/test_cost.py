@@ -331,3 +331,45 @@ def test_nearest_in_row_is_the_where_and_accumulate():
             right = np.minimum.accumulate(np.where(m, cols, np.int32(w))[:, ::-1], axis=1)[:, ::-1]
             got = nearest_in_row(m)
             assert got[0].dtype == left.dtype and np.array_equal(got[0], left) and np.array_equal(got[1], right)
+
+
+def _fit_road_plane_whole_grid(points, labels, camera):
+    from synthcompose.lighting.plan import GROUND_IDS
+
+    rel = points[..., :2] - np.array([camera.x, camera.y], np.float32)
+    dist = np.hypot(rel[..., 0], rel[..., 1])
+    sel = np.isin(labels, GROUND_IDS) & (dist > 4.0) & (dist < 25.0) & np.isfinite(dist)
+    road = sel & (labels == GROUND_IDS[1])
+    if road.sum() > 2000:
+        sel = road
+    p, r = points[sel][::5].astype(np.float64), rel[sel][::5].astype(np.float64)
+    if len(p) < 200:
+        return 0.0, 0.0, 0.0
+    A = np.column_stack([np.ones(len(p)), r[:, 0], r[:, 1]])
+    keep = np.abs(p[:, 2]) < 0.5
+    coef = np.zeros(3)
+    for _ in range(4):
+        if keep.sum() < 50:
+            break
+        coef, *_ = np.linalg.lstsq(A[keep], p[keep, 2], rcond=None)
+        res = p[:, 2] - A @ coef
+        keep = np.abs(res) < max(3 * 1.4826 * float(np.median(np.abs(res[keep]))), 0.03)
+    return float(coef[0]), float(coef[1]), float(coef[2])
+
+
+def test_road_plane_fit_over_the_ground_alone_is_the_whole_grids():
+    from synthcompose.camera import Camera
+    from synthcompose.lighting.plan import _points, fit_road_plane
+
+    cam = Camera(2262.5, 2265.3, 1096.9, 513.1, 0.209, 1.7, 0.1, 1.22, 0.0, 0.05, 0.0, 2048, 1024)
+    rng = np.random.default_rng(14)
+    for road_share in (0.6, 0.01):
+        depth = rng.uniform(2, 60, (1024, 2048)).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.1] = np.inf
+        pts = _points(depth, cam)
+        labels = rng.choice([7, 8, 6, 11, 21, 26], p=[road_share, 0.1, 0.05, 0.1, 0.05, 0.7 - road_share],
+                            size=(1024, 2048)).astype(np.uint8)[::2, ::2][: pts.shape[0], : pts.shape[1]]
+        pts[..., 2] = np.where(np.isin(labels, [6, 7, 8]), 0.02 * pts[..., 0] + rng.normal(0, 0.03, pts.shape[:2]),
+                               pts[..., 2]).astype(np.float32)
+        fit = fit_road_plane(pts, labels, cam)
+        assert fit == _fit_road_plane_whole_grid(pts, labels, cam) and fit != (0.0, 0.0, 0.0)
