@@ -184,6 +184,11 @@ def _norm(v: np.ndarray) -> np.ndarray:
     return np.sqrt(v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2])
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.sum(a * b, axis=-1)`` of (N, 3) vectors, in its order, column by column."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
 def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np.ndarray,
                   camera: Camera) -> np.ndarray:
     """(N, 3) normals at pixels (r, c) from the photo's own pixels 1 and 2 apart, with the tests
@@ -198,14 +203,18 @@ def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np
     row_ray = (((np.arange(H) - camera.v0) / camera.fy)[:, None] * m[:3, 1] + m[:3, 2]).astype(np.float32)
     # the cheap tests first (all nine pixels known, of one label), then each geometric test on
     # the pixels still in the running (most fail): the same normals, for a fraction of the work
-    lab0 = label_ids[r, c]
+    # (the pixels read by their index in the flattened frame: a fifth of a 2-D gather's cost)
+    depth_at, label_at = depth.reshape(-1), label_ids.reshape(-1)
+    at = r * W + c
+    lab0 = np.take(label_at, at)
     ok = np.ones(len(r), bool)
     for dr, dc in ((0, 0), (0, 1), (0, -1), (1, 0), (-1, 0), (0, 2), (0, -2), (2, 0), (-2, 0)):
-        ok &= np.isfinite(depth[r + dr, c + dc]) & (label_ids[r + dr, c + dc] == lab0)
-    idx, r, c = idx[ok], r[ok], c[ok]
+        near = at + (dr * W + dc)
+        ok &= np.isfinite(np.take(depth_at, near)) & (np.take(label_at, near) == lab0)
+    idx, r, c, at = idx[ok], r[ok], c[ok], at[ok]
 
     def point(dr: int, dc: int) -> np.ndarray:  # relative to the camera's position
-        return depth[r + dr, c + dc][:, None] * (col_ray[c + dc] + row_ray[r + dr])
+        return np.take(depth_at, at + (dr * W + dc))[:, None] * (col_ray[c + dc] + row_ray[r + dr])
 
     normals: list[np.ndarray] = []
     for k in (1, 2):
@@ -215,12 +224,12 @@ def _fine_normals(r: np.ndarray, c: np.ndarray, label_ids: np.ndarray, depth: np
         ok = np.ones(len(r), bool)
         for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
             ok &= _norm(a + b - 2 * p0) <= 0.08 * _norm(span) + 1e-3
-        idx, r, c, p0 = idx[ok], r[ok], c[ok], p0[ok]
+        idx, r, c, at, p0 = idx[ok], r[ok], c[ok], at[ok], p0[ok]
         normals = [n[ok] for n in normals]
         n = np.cross(du[ok], dv[ok])
         normals.append(n / np.maximum(_norm(n), 1e-12)[:, None])
     n1, n2 = normals
-    ok = np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
-    n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)  # facing the camera
+    ok = np.abs(_dot(n1, n2)) >= math.cos(math.radians(10))
+    n2 = np.where((_dot(n2, p0) > 0)[:, None], -n2, n2)  # facing the camera
     out[idx[ok]] = n2[ok]
     return out

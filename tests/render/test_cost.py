@@ -373,3 +373,59 @@ def test_road_plane_fit_over_the_ground_alone_is_the_whole_grids():
                                pts[..., 2]).astype(np.float32)
         fit = fit_road_plane(pts, labels, cam)
         assert fit == _fit_road_plane_whole_grid(pts, labels, cam) and fit != (0.0, 0.0, 0.0)
+
+
+def _fine_normals_2d(r, c, label_ids, depth, camera):
+    """grid._fine_normals as it was, by 2-D gathers and NumPy's sums over the last axis."""
+    import math
+
+    H, W = label_ids.shape
+    out = np.full((len(r), 3), np.nan, np.float32)
+    idx = np.nonzero((r >= 2) & (r < H - 2) & (c >= 2) & (c < W - 2))[0]
+    r, c = r[idx], c[idx]
+    m = camera.vehicle_from_optical
+    col_ray = (((np.arange(W) - camera.u0) / camera.fx)[:, None] * m[:3, 0]).astype(np.float32)
+    row_ray = (((np.arange(H) - camera.v0) / camera.fy)[:, None] * m[:3, 1] + m[:3, 2]).astype(np.float32)
+    lab0 = label_ids[r, c]
+    ok = np.ones(len(r), bool)
+    for dr, dc in ((0, 0), (0, 1), (0, -1), (1, 0), (-1, 0), (0, 2), (0, -2), (2, 0), (-2, 0)):
+        ok &= np.isfinite(depth[r + dr, c + dc]) & (label_ids[r + dr, c + dc] == lab0)
+    idx, r, c = idx[ok], r[ok], c[ok]
+
+    def point(dr, dc):
+        return depth[r + dr, c + dc][:, None] * (col_ray[c + dc] + row_ray[r + dr])
+
+    normals = []
+    for k in (1, 2):
+        p0 = point(0, 0)
+        a_u, b_u, a_v, b_v = point(0, k), point(0, -k), point(k, 0), point(-k, 0)
+        du, dv = a_u - b_u, a_v - b_v
+        ok = np.ones(len(r), bool)
+        for a, b, span in ((a_u, b_u, du), (a_v, b_v, dv)):
+            ok &= np.linalg.norm(a + b - 2 * p0, axis=-1) <= 0.08 * np.linalg.norm(span, axis=-1) + 1e-3
+        idx, r, c, p0 = idx[ok], r[ok], c[ok], p0[ok]
+        normals = [n[ok] for n in normals]
+        n = np.cross(du[ok], dv[ok])
+        normals.append(n / np.maximum(np.linalg.norm(n, axis=-1), 1e-12)[:, None])
+    n1, n2 = normals
+    ok = np.abs(np.sum(n1 * n2, axis=-1)) >= math.cos(math.radians(10))
+    n2 = np.where((np.sum(n2 * p0, axis=-1) > 0)[:, None], -n2, n2)
+    out[idx[ok]] = n2[ok]
+    return out
+
+
+def test_fine_normals_by_flat_gathers_are_the_2d_ones():
+    from synthcompose.camera import Camera
+    from synthcompose.lighting.grid import _fine_normals
+
+    cam = Camera(1131.0, 1132.0, 548.0, 256.0, 0.209, 1.7, 0.1, 1.22, 0.0, 0.05, 0.0, 1024, 512)
+    rng = np.random.default_rng(15)
+    v, u = np.mgrid[0:512, 0:1024].astype(np.float64)
+    # two planes (a plane's inverse depth is affine in the pixel), a crease between them, holes
+    labels = np.where(u < 600, 7, 11).astype(np.uint8)
+    depth = np.where(labels == 7, 1.0 / (0.02 + 3e-5 * u + 6e-5 * v), 1.0 / (0.12 - 1e-4 * u + 0 * v)).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.02] = np.inf
+    r, c = rng.integers(0, 512, 30000), rng.integers(0, 1024, 30000)
+    got, want = _fine_normals(r, c, labels, depth, cam), _fine_normals_2d(r, c, labels, depth, cam)
+    assert np.isfinite(want[:, 0]).sum() > 1000
+    assert np.array_equal(got, want, equal_nan=True)
