@@ -194,16 +194,17 @@ class Frame:
             empty = np.empty(0, np.int64)
             return (np.empty((0, 3)), np.empty(0, np.uint8)) + ((empty, empty) if with_pixels else ())
         sub = self.depth[r0:r1:stride, c0:c1:stride]
+        labels = self.label_ids[r0:r1:stride, c0:c1:stride]
         valid = np.isfinite(sub)
         if only is not None:
-            valid &= only[self.label_ids[r0:r1:stride, c0:c1:stride]]
+            valid &= only[labels]
         v, u = np.nonzero(valid)
-        z = sub[v, u].astype(np.float64)
+        z = sub[valid].astype(np.float64)  # (a boolean mask reads in np.nonzero's order, cheaper)
         v, u = v * stride + r0, u * stride + c0
         cam = self.camera
         optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
         m = cam.vehicle_from_optical
-        out = (optical @ m[:3, :3].T + m[:3, 3], self.label_ids[v, u])
+        out = (optical @ m[:3, :3].T + m[:3, 3], labels[valid])
         return out + ((v, u) if with_pixels else ())
 
     def box_rect(self, corners_v: np.ndarray, pad: int = 1) -> tuple[int, int, int, int] | None:

@@ -429,3 +429,24 @@ def test_fine_normals_by_flat_gathers_are_the_2d_ones():
     got, want = _fine_normals(r, c, labels, depth, cam), _fine_normals_2d(r, c, labels, depth, cam)
     assert np.isfinite(want[:, 0]).sum() > 1000
     assert np.array_equal(got, want, equal_nan=True)
+
+
+def test_rect_points_read_by_mask_are_the_gathered_ones():
+    from synthcompose.camera import Camera
+    from synthcompose.geometry.depth import make_frame
+
+    cam = Camera(1131.0, 1132.0, 548.0, 256.0, 0.209, 1.7, 0.1, 1.22, 0.0, 0.05, 0.0, 300, 200)
+    rng = np.random.default_rng(16)
+    depth = rng.uniform(3, 40, (200, 300)).astype(np.float32)
+    depth[rng.random(depth.shape) < 0.2] = np.inf
+    labels = rng.integers(0, 34, (200, 300)).astype(np.uint8)
+    frame = make_frame(depth, labels, cam)
+    only = np.zeros(256, bool)
+    only[[7, 8]] = True
+    for args in [dict(), dict(only=only), dict(stride=3), dict(only=only, stride=2)]:
+        pts, lab, v, u = frame.rect_points(20, 150, 35, 260, with_pixels=True, **args)
+        z = depth[v, u].astype(np.float64)
+        optical = np.column_stack([(u - cam.u0) * z / cam.fx, (v - cam.v0) * z / cam.fy, z])
+        m = cam.vehicle_from_optical
+        assert np.array_equal(pts, optical @ m[:3, :3].T + m[:3, 3]) and np.array_equal(lab, labels[v, u])
+        assert len(v) and np.isfinite(depth[v, u]).all() and (only[lab].all() if "only" in args else True)
