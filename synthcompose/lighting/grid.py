@@ -27,14 +27,20 @@ class Grid:
 
 
 def _cell_reduce(a: np.ndarray, f: int, op) -> np.ndarray:
-    """Min (``cv2.erode``) or max (``cv2.dilate``) of ``a`` over each f x f cell, (h, w)."""
+    """Min (``cv2.erode``) or max (``cv2.dilate``) of ``a`` (no NaN) over each f x f cell, (h, w):
+    the erosion's (dilation's) value at each cell's centre pixel, taken as the minimum (maximum)
+    of the cell's f rows, then of f columns of that (half of the morphology's cost)."""
     h, w = a.shape[0] // f, a.shape[1] // f
     if f == 1:
         return a[:h, :w].copy()
-    # the kernel's anchor (f // 2) puts cell (i, j)'s pixels exactly under output i*f + f//2
-    out = op(np.ascontiguousarray(a[: h * f, : w * f]), np.ones((f, f), np.uint8),
-             borderType=cv2.BORDER_REPLICATE)
-    return out[f // 2:: f, f // 2:: f][:h, :w].copy()  # not a view that keeps the whole frame's array
+    pick = np.minimum if op is cv2.erode else np.maximum
+    rows = a[0:h * f:f, :w * f]
+    for i in range(1, f):
+        rows = pick(rows, a[i:h * f:f, :w * f])
+    out = rows[:, 0::f]
+    for j in range(1, f):
+        out = pick(out, rows[:, j::f])
+    return np.ascontiguousarray(out)  # not a view that keeps the whole frame's array
 
 
 def _cell_mean(a: np.ndarray, f: int) -> np.ndarray:

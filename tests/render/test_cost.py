@@ -450,3 +450,23 @@ def test_rect_points_read_by_mask_are_the_gathered_ones():
         m = cam.vehicle_from_optical
         assert np.array_equal(pts, optical @ m[:3, :3].T + m[:3, 3]) and np.array_equal(lab, labels[v, u])
         assert len(v) and np.isfinite(depth[v, u]).all() and (only[lab].all() if "only" in args else True)
+
+
+def test_cell_minima_and_maxima_are_the_morphologys():
+    import cv2
+
+    from synthcompose.lighting.grid import _cell_reduce
+
+    rng = np.random.default_rng(17)
+    for a in (rng.integers(0, 34, (100, 211)).astype(np.uint8), rng.uniform(2, 50, (100, 211)).astype(np.float32),
+              np.where(rng.random((100, 211)) < 0.3, np.float32(np.inf), rng.uniform(2, 50, (100, 211)).astype(np.float32))):
+        for f in (1, 2, 3, 4):
+            h, w = a.shape[0] // f, a.shape[1] // f
+            for op in (cv2.erode, cv2.dilate):
+                if f == 1:
+                    want = a[:h, :w]
+                else:
+                    want = op(np.ascontiguousarray(a[: h * f, : w * f]), np.ones((f, f), np.uint8),
+                              borderType=cv2.BORDER_REPLICATE)[f // 2:: f, f // 2:: f][:h, :w]
+                got = _cell_reduce(a, f, op)
+                assert got.shape == (h, w) and got.flags.c_contiguous and np.array_equal(got, want), (a.dtype, f, op)
