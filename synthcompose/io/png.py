@@ -26,6 +26,9 @@ PNG_LEVEL = 2
 PNG_FILTERS = {"none": 0, "sub": 1, "up": 2, "avg": 3}
 #: the filter of a file whose writer names none
 DEFAULT_FILTER = "up"
+#: the rows are filtered and deflated this many bytes at a time (a photo's filtered rows are
+#: 6 MB; the encoder holds one piece of them and the compressed file)
+CHUNK_BYTES = 1 << 20
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _COLOUR_TYPE = {1: 0, 3: 2, 4: 6}  # channels -> PNG colour type: greyscale, RGB, RGBA
@@ -94,7 +97,20 @@ def encode_png(img: np.ndarray, png_filter: str | None = None) -> bytes:
     channels = 1 if img.ndim == 2 else (img.shape[2] if img.ndim == 3 else 0)
     if channels not in _COLOUR_TYPE or img.shape[0] < 1 or img.shape[1] < 1 or (channels > 1 and img.dtype != np.uint8):
         raise ValueError(f"cannot encode an array of {img.dtype} {img.shape} as PNG")
-    rows = filtered_rows(img, png_filter or DEFAULT_FILTER)
-    header = struct.pack(">IIBBBBB", img.shape[1], img.shape[0], img.dtype.itemsize * 8, _COLOUR_TYPE[channels], 0, 0, 0)
-    return b"".join((_SIGNATURE, _chunk(b"IHDR", header), _chunk(b"IDAT", isal_zlib.compress(rows, PNG_LEVEL)),
-                     _chunk(b"IEND", b"")))
+    png_filter = png_filter or DEFAULT_FILTER
+    if png_filter not in PNG_FILTERS:
+        raise ValueError(f"unknown PNG filter {png_filter!r}; one of {', '.join(PNG_FILTERS)}")
+    h = img.shape[0]
+    step = max(1, CHUNK_BYTES // (img[0].size * img.dtype.itemsize + 1))  # rows a piece
+    stream = isal_zlib.compressobj(PNG_LEVEL)
+    idat = []
+    for r0 in range(0, h, step):  # each piece filtered with the row above it, then dropped
+        above = max(r0 - 1, 0)
+        idat.append(stream.compress(filtered_rows(img[above:r0 + step], png_filter)[r0 - above:]))
+    idat.append(stream.flush())
+    data = b"".join(idat)
+    del idat
+    header = struct.pack(">IIBBBBB", img.shape[1], h, img.dtype.itemsize * 8, _COLOUR_TYPE[channels], 0, 0, 0)
+    crc = isal_zlib.crc32(data, isal_zlib.crc32(b"IDAT"))
+    return b"".join((_SIGNATURE, _chunk(b"IHDR", header), struct.pack(">I", len(data)), b"IDAT", data,
+                     struct.pack(">I", crc), _chunk(b"IEND", b"")))

@@ -122,3 +122,16 @@ def test_damaged_chunk_names_what_is_wrong():
     assert "cut short" in damaged_chunk(good[:-20])
     i = good.index(b"IDAT") + 10
     assert "IDAT chunk fails its CRC" in damaged_chunk(good[:i] + bytes([good[i] ^ 4]) + good[i + 1:])
+
+
+@pytest.mark.parametrize("chunk", [1, 150, 1 << 20])
+def test_rows_written_piece_by_piece_keep_the_pixels(chunk, monkeypatch):
+    """The encoder filters and deflates the rows a piece at a time (png.CHUNK_BYTES), each piece
+    with the row above it: the same pixels at any piece size, a row, a few rows or the image."""
+    from synthcompose.io import png
+
+    monkeypatch.setattr(png, "CHUNK_BYTES", chunk)
+    for img in _images(np.random.default_rng(21)):
+        for png_filter in PNG_FILTERS:
+            data = encode_png(img, png_filter)
+            assert np.array_equal(_opencv(data, img), img) and [k for k, _ in _chunks(data)] == [b"IHDR", b"IDAT", b"IEND"]
