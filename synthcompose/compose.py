@@ -55,16 +55,6 @@ def _uint_texture(gl: GLContext, size: tuple[int, int], values: np.ndarray) -> m
                       dtype=dtype)
 
 
-def label_mask(labels: np.ndarray, ids) -> np.ndarray:
-    """(H, W) bool: ``labels`` (uint8) is one of ``ids`` (``np.isin``, by a 256-entry table:
-    OpenCV's LUT on a frame's labels, a third of NumPy's indexing with its int64 copy)."""
-    table = np.zeros(256, np.uint8)
-    table[list(ids)] = 1
-    if labels.dtype == np.uint8 and labels.ndim == 2 and labels.flags.c_contiguous and labels.size:
-        return cv2.LUT(labels, table).view(bool)
-    return table.astype(bool)[labels]
-
-
 @dataclass(frozen=True, eq=False)
 class Composed:
     """Full-frame outputs. rgb (H, W, 3) uint8; label_ids (H, W) uint8; instance_ids (H, W)

@@ -49,6 +49,19 @@ def category_ids(*categories: str) -> tuple[int, ...]:
     return tuple(sorted(lab.id for lab in labels if lab.category in categories and lab.id >= 0))
 
 
+def labels_in(labels: np.ndarray, ids) -> np.ndarray:
+    """Bool, ``labels``' shape: each label is one of ``ids`` (``np.isin``, by a 256-entry table;
+    OpenCV's LUT on a frame's uint8 labels, a third of NumPy's indexing with its int64 copy)."""
+    labels = np.asarray(labels)
+    if labels.dtype != np.uint8:
+        return np.isin(labels, list(ids))
+    table = np.zeros(256, np.uint8)
+    table[list(ids)] = 1
+    if labels.ndim == 2 and labels.flags.c_contiguous and labels.size:
+        return cv2.LUT(labels, table).view(bool)
+    return table.astype(bool)[labels]
+
+
 def byte_counts(values: np.ndarray) -> np.ndarray:
     """(256,) int64: how many of ``values`` (uint8, any shape) hold each byte value; what
     ``np.bincount(values.ravel(), minlength=256)`` gives, without its int64 copy of the array

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from synthcompose.camera import Camera
-from synthcompose.labels import label_id
+from synthcompose.labels import label_id, labels_in
 
 from .light import GROUND_IDS, LEVEL_LUT
 
@@ -113,21 +113,13 @@ def linear_at(rgb: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
                      borderMode=cv2.BORDER_CONSTANT, borderValue=0)
 
 
-_GROUND_TABLE = np.isin(np.arange(256), GROUND_IDS)
-
-
-def _is_ground(labels: np.ndarray) -> np.ndarray:
-    """``np.isin(labels, GROUND_IDS)``, by a 256-entry table for uint8 labels."""
-    return _GROUND_TABLE[labels] if labels.dtype == np.uint8 else np.isin(labels, GROUND_IDS)
-
-
 def fit_road_plane(points: np.ndarray, labels: np.ndarray, camera: Camera) -> tuple[float, float, float]:
     """(a, b, c): the plane z = a + b (x - x_c) + c (y - y_c) through the ground points 4-25 m
     away (labels ``labels`` in :data:`GROUND_IDS`; road preferred), robustly (the road, not the
     sidewalks above it); the camera's own ground plane (0, 0, 0) without enough of them."""
     # the ground's points alone (in the grid's order), then their distance: the values the whole
     # grid's would give them, for the third of the grid that is ground
-    at = np.flatnonzero(_is_ground(labels))
+    at = np.flatnonzero(labels_in(labels, GROUND_IDS))
     pts = points.reshape(-1, 3)[at]
     rel = pts[:, :2] - np.array([camera.x, camera.y], np.float32)
     dist = np.hypot(rel[:, 0], rel[:, 1])
@@ -160,7 +152,7 @@ def ground_plan(rgb: np.ndarray, label_ids: np.ndarray, depth: np.ndarray, camer
     a, b, c = fit_road_plane(pts, lab, camera)
     height = pts[..., 2] - (a + b * (pts[..., 0] - camera.x) + c * (pts[..., 1] - camera.y))
     known = np.isfinite(height)
-    ground = _is_ground(lab)
+    ground = labels_in(lab, GROUND_IDS)
     if not labelled:  # ground the colour model left out (shadows, patches): level pixels
         ground |= (lab == 0) & known & (np.abs(height) < STANDING_HEIGHT)
     standing = known & ~ground & (height > STANDING_HEIGHT) & (height < 4.0)

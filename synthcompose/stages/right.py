@@ -12,8 +12,9 @@ from typing import Sequence
 
 import numpy as np
 
-from synthcompose.compose import FRONT_LABELS, Composer, SceneLayers, label_mask
+from synthcompose.compose import FRONT_LABELS, Composer, SceneLayers
 from synthcompose.geometry.right_view import carry_to_right
+from synthcompose.labels import labels_in
 from synthcompose.lighting import CameraMatch
 from synthcompose.lighting.light import Lighting
 from synthcompose.render import Renderer, RenderObject
@@ -61,7 +62,7 @@ def shade_right(renderer: Renderer, composer: Composer, prep: Prepared, left_sha
         layers["ground"] = scene.ground
     if sun_mask is not None:
         layers["sun"] = np.asarray(sun_mask, np.float32)
-    carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=label_mask(scene.label_ids, FRONT_LABELS))
+    carried = carry_to_right(scene.depth, left, rows, cols, layers, keep=labels_in(scene.label_ids, FRONT_LABELS))
     passes = renderer.render(cam, objects, lighting, photo=photo, roi=roi, sun_mask=carried.get("sun"),
                              eye=(left, prep.image_set.rgb), scene_depth=carried["depth"])
     if passes is None:

@@ -16,10 +16,10 @@ import numpy as np
 
 from synthcompose.camera import Camera
 from synthcompose.colour import srgb_to_linear
-from synthcompose.compose import Composed, Composer, SceneLayers, label_mask
+from synthcompose.compose import Composed, Composer, SceneLayers
 from synthcompose.geometry.depth import Frame, occluder_fill
 from synthcompose.io.files import DISPARITY_SCALE
-from synthcompose.labels import byte_counts, label_id
+from synthcompose.labels import byte_counts, label_id, labels_in
 from synthcompose.lighting.camera_match import object_tones
 from synthcompose.look.appearance import Appearance, appearance_rng, draw_appearance
 from synthcompose.placement import GROUND_LEVEL, Placement
@@ -106,7 +106,7 @@ def ground_occluders(depth: np.ndarray, bands: list[slice], labels: np.ndarray) 
     from the depth (``lighting.plan.completed_labels``), so that level ground the finder left
     unnamed, a leafy footway, is ground too (a far person's sun shadow across such a footway came
     out in dashes, where the stereo brought the ground nearer than the shadow's plane)."""
-    return occluders_in_rows(depth, bands, label_mask(labels, [label_id(n) for n in GROUND_LEVEL]), labels == 0)
+    return occluders_in_rows(depth, bands, labels_in(labels, [label_id(n) for n in GROUND_LEVEL]), labels == 0)
 
 
 @dataclass(frozen=True, eq=False)

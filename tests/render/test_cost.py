@@ -253,15 +253,15 @@ def test_byte_counts_are_bincounts():
         byte_counts(np.zeros(4, np.uint16))
 
 
-def test_label_mask_is_the_tables_lookup():
-    from synthcompose.compose import label_mask
+def test_labels_in_is_the_tables_lookup():
+    from synthcompose.labels import labels_in
 
     rng = np.random.default_rng(6)
     frame = rng.integers(0, 34, (64, 96), np.uint8)
     for labels in (frame, frame[::2, 1::3], frame[5:9], np.zeros((0, 3), np.uint8)):
         for ids in ([7], [6, 7, 8, 9, 10], [], [0, 255]):
             want = np.isin(labels, ids)
-            got = label_mask(labels, ids)
+            got = labels_in(labels, ids)
             assert got.dtype == bool and got.shape == labels.shape and np.array_equal(got, want)
 
 
